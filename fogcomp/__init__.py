@@ -1,0 +1,38 @@
+"""fogcomp: fiber-optic gyro error compensation methods, behind one estimator interface.
+
+Works on arrays, sample rates and units only (no simulation, no scenario files), so that it
+serves a real recorded gyro log as well as the fogbench simulation.
+
+>>> import fogcomp
+>>> data = fogcomp.GyroData(rate=rate_rad_s, fs=100.0)
+>>> model = fogcomp.make_method("wavelet_soft").fit(data)
+>>> clean = model.compensate(data)
+"""
+
+from .base import (
+    Compensator,
+    DivergenceError,
+    GyroData,
+    ModelFileError,
+    NotFittedError,
+    available_methods,
+    get_method,
+    load_model,
+    make_method,
+    register,
+    save_model,
+)
+
+__all__ = [
+    "Compensator",
+    "DivergenceError",
+    "GyroData",
+    "ModelFileError",
+    "NotFittedError",
+    "available_methods",
+    "get_method",
+    "load_model",
+    "make_method",
+    "register",
+    "save_model",
+]

@@ -1,0 +1,1 @@
+"""fogbench simulation: rate table, thermal chamber, FOG error model, scenarios, runner."""

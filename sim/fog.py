@@ -1,0 +1,279 @@
+"""The FOG error model: what a real fiber-optic gyro adds to the true rate.
+
+Every term is computed separately, in rad/s per sample, from its own random stream, and the
+output is their sum plus the truth, sampled as angle increments over each sample interval and
+quantised (the quantisation is itself reported as a term). So
+
+    raw = truth + sum(terms)            (exactly, up to floating-point rounding)
+
+and the runner can tell what an ideal compensator of the deterministic terms reaches (the oracle).
+
+Terms (name: model), for each sensitive axis a with true rate w_a (rad/s), specific force
+f = (fx, fy, fz) (g), coil temperature T (deg C) and its rate Tdot (deg C/s):
+
+- ``constant_bias``: b0.
+- ``switch_on_bias``: b_s ~ N(0, sigma_s^2), a new draw at each power-on (each run).
+- ``arw``: white rate noise; angle random walk N: the per-sample mean rate has std N sqrt(fs).
+- ``bias_instability``: flicker (1/f) rate noise with one-sided PSD B^2/(pi f) over a band of
+  frequencies, made as a sum of first-order Gauss-Markov processes with log-spaced corner
+  frequencies and equal variances (a flat Allan floor of sqrt(2 ln 2 / pi) B = 0.664 B,
+  IEEE Std 952-1997, Annex C), each started from its stationary distribution.
+- ``rrw``: rate random walk K: the rate's increments per sample have std K sqrt(1/fs).
+- ``rate_ramp``: R t.
+- ``scale_factor``: (k0 + kT (T - T_ref)) w_a + k_nl w_a |w_a| / w_fs  (k_nl at full scale).
+- ``misalignment``: sum over the other two axes b of M[a, b] w_b (small angles, rad).
+- ``g_sensitivity``: d1 fx + d2 fy + d3 fz (paper 004, eq. 8, the linear terms).
+- ``g2_sensitivity``: d4 fx^2 + d5 fy^2 + d6 fz^2 + d7 fx fy + d8 fy fz + d9 fx fz (paper 004,
+  eq. 8, the quadratic terms), with optional switch-on variation of d1..d9.
+- ``temperature``: c1 (T - T_ref) + c2 (T - T_ref)^2 + c3 Tdot + c4 (T - T_ref) Tdot: the Shupe
+  bias, which is driven by the rate of change of temperature through the coil (paper 002, eq. 1),
+  with a temperature-dependent coefficient, plus the static thermal sensitivity.
+- ``quantization``: the output is the whole number of quanta Q of the accumulated angle, as a
+  pulse counter outputs it; the term is the difference this makes.
+
+Each term's random stream is ``SeedSequence(seed, spawn_key=(crc32(term name), axis))``, so that
+switching one term on or off never changes another term's draws.
+"""
+
+from __future__ import annotations
+
+import math
+import zlib
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.signal import lfilter
+
+__all__ = ["FogParams", "FogOutput", "TERMS", "simulate_fog", "bias_instability_components"]
+
+TERMS = ("constant_bias", "switch_on_bias", "arw", "bias_instability", "rrw", "rate_ramp",
+         "scale_factor", "misalignment", "g_sensitivity", "g2_sensitivity", "temperature",
+         "quantization")
+AXES = {"x": 0, "y": 1, "z": 2}
+
+
+@dataclass(frozen=True)
+class FogParams:
+    """FOG error parameters in SI units (the scenario loader converts from datasheet units).
+
+    Attributes
+    ----------
+    bias : rad/s.  switch_on_bias_sigma : rad/s.  arw : rad/sqrt(s).
+    bias_instability : B, rad/s (Allan floor 0.664 B).  bi_band : (f_low, f_high), Hz, the corner
+    frequencies spanned by the flicker model.  bi_per_decade : Gauss-Markov components per decade.
+    rrw : rad/s/sqrt(s).  rate_ramp : rad/s^2.  quantization : rad per output quantum.
+    scale_factor : k0 (dimensionless).  sf_nonlinearity : k_nl at full scale (dimensionless).
+    full_scale : rad/s.  sf_temp_coeff : kT, 1/degC.
+    misalignment : shape (3, 3), rad; row a gives axis a's sensitivity to the rates about x, y, z
+    (the diagonal must be zero).
+    g_sens : shape (3,) or (n_axes, 3), rad/s/g (d1..d3).  g2_sens : shape (6,) or (n_axes, 6),
+    rad/s/g^2 (d4..d9 in the order fx^2, fy^2, fz^2, fx fy, fy fz, fx fz).
+    g_sens_switch_on_sigma : rad/s/g.  g2_sens_switch_on_sigma : rad/s/g^2.
+    temp_ref : degC.  temp_coeff : rad/s/degC.  temp_coeff2 : rad/s/degC^2.
+    temp_rate_coeff : rad/s per (degC/s).  temp_cross_coeff : rad/s per (degC * degC/s).
+    """
+
+    bias: float = 0.0
+    switch_on_bias_sigma: float = 0.0
+    arw: float = 0.0
+    bias_instability: float = 0.0
+    bi_band: tuple[float, float] = (1e-4, 0.1)
+    bi_per_decade: int = 3
+    rrw: float = 0.0
+    rate_ramp: float = 0.0
+    quantization: float = 0.0
+    scale_factor: float = 0.0
+    sf_nonlinearity: float = 0.0
+    full_scale: float = math.radians(500.0)
+    sf_temp_coeff: float = 0.0
+    misalignment: tuple = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    g_sens: tuple = (0.0, 0.0, 0.0)
+    g2_sens: tuple = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    g_sens_switch_on_sigma: float = 0.0
+    g2_sens_switch_on_sigma: float = 0.0
+    temp_ref: float = 20.0
+    temp_coeff: float = 0.0
+    temp_coeff2: float = 0.0
+    temp_rate_coeff: float = 0.0
+    temp_cross_coeff: float = 0.0
+    disabled: tuple[str, ...] = field(default=())
+
+
+@dataclass(frozen=True)
+class FogOutput:
+    """FOG output for n samples and the given axes.
+
+    raw : shape (n, n_axes), rad/s (angle increment / sample interval).
+    terms : term name -> shape (n, n_axes), rad/s; raw = truth + sum of terms. A term that is
+    switched off or has zero parameters is absent (its contribution is zero).
+    draws : the switch-on values of this power-on (SI): ``switch_on_bias`` (n_axes,),
+    ``g_sens`` (n_axes, 3), ``g2_sens`` (n_axes, 6).
+    """
+
+    raw: np.ndarray
+    terms: dict[str, np.ndarray]
+    draws: dict[str, np.ndarray]
+    axes: tuple[str, ...]
+
+    def deterministic_error(self, exclude=("arw", "bias_instability", "rrw", "quantization")):
+        """Sum of the terms a model of the inputs can predict (all but the noises), rad/s."""
+        return sum(v for k, v in self.terms.items() if k not in exclude)
+
+
+def _stream(seed: int, term: str, axis: int) -> np.random.Generator:
+    ss = np.random.SeedSequence(seed, spawn_key=(zlib.crc32(term.encode()), axis))
+    return np.random.default_rng(ss)
+
+
+def bias_instability_components(B: float, band: tuple[float, float], per_decade: int):
+    """Corner frequencies (Hz) and the common standard deviation (rad/s) of the Gauss-Markov
+    components whose sum has the one-sided PSD B^2 / (pi f) inside ``band``.
+
+    A Gauss-Markov process of variance s^2 and correlation time tc has one-sided PSD
+    4 s^2 tc / (1 + (2 pi f tc)^2). With rho components per unit of ln(tc), all of variance s^2,
+    the sum is rho s^2 / f. With rho = per_decade / ln 10 and rho s^2 = B^2 / pi the PSD is
+    B^2 / (pi f), whose Allan floor is sqrt(2 ln 2 h) = sqrt(2 ln 2 / pi) B = 0.664 B.
+    """
+    f_lo, f_hi = band
+    n = max(1, int(round(per_decade * math.log10(f_hi / f_lo)))) + 1
+    corners = np.geomspace(f_lo, f_hi, n)
+    rho = (n - 1) / math.log(f_hi / f_lo) if n > 1 else per_decade / math.log(10)
+    sigma = math.sqrt(B * B / math.pi / rho)
+    return corners, sigma
+
+
+def _bias_instability(n, fs, B, band, per_decade, rng):
+    """Sum of stationary Gauss-Markov processes, generated at a reduced rate when the band's top
+    is far below fs and linearly interpolated: their power lies below the top corner."""
+    corners, sigma = bias_instability_components(B, band, per_decade)
+    dec = max(1, int(fs / (20.0 * band[1])))
+    fsd = fs / dec
+    m = n // dec + 2
+    total = np.zeros(m)
+    for fc in corners:
+        phi = math.exp(-2.0 * math.pi * fc / fsd)
+        w = rng.standard_normal(m) * sigma * math.sqrt(1.0 - phi * phi)
+        x0 = rng.standard_normal() * sigma
+        y, _ = lfilter([1.0], [1.0, -phi], w, zi=[phi * x0])
+        total += y
+    if dec == 1:
+        return total[:n]
+    return np.interp(np.arange(n) / dec, np.arange(m), total)
+
+
+def simulate_fog(params: FogParams, fs: float, truth_rate: np.ndarray, specific_force: np.ndarray,
+                 temp: np.ndarray | None = None, temp_rate: np.ndarray | None = None,
+                 axes: tuple[str, ...] = ("z",), seed: int = 0) -> FogOutput:
+    """FOG output for the truth of one power-on.
+
+    Parameters
+    ----------
+    params : FogParams
+        Error parameters, SI.
+    fs : float
+        Sample rate, Hz.
+    truth_rate : ndarray, shape (n, 3)
+        True inertial angular rate about the sensor's x, y, z, averaged over each sample, rad/s.
+    specific_force : ndarray, shape (n, 3)
+        Specific force along x, y, z, in g.
+    temp, temp_rate : ndarray, shape (n,), optional
+        Coil temperature, degC, and its rate, degC/s (default: T_ref and 0).
+    axes : tuple of str
+        Sensitive axes, among "x", "y", "z" (one FOG each).
+    seed : int
+        Seed of this power-on; each term and axis has its own stream derived from it.
+    """
+    truth_rate = np.asarray(truth_rate, dtype=float)
+    f = np.asarray(specific_force, dtype=float)
+    n = truth_rate.shape[0]
+    if truth_rate.shape != (n, 3) or f.shape != (n, 3):
+        raise ValueError(f"truth_rate and specific_force must have shape (n, 3); got "
+                         f"{truth_rate.shape} and {f.shape}")
+    for a in axes:
+        if a not in AXES:
+            raise ValueError(f"axes: {a!r} is not one of 'x', 'y', 'z'")
+    p = params
+    na = len(axes)
+    dT = None if temp is None else np.asarray(temp, dtype=float) - p.temp_ref
+    Tdot = None if temp_rate is None else np.asarray(temp_rate, dtype=float)
+    dt = 1.0 / fs
+    g_nom = np.broadcast_to(np.asarray(p.g_sens, dtype=float), (na, 3))
+    g2_nom = np.broadcast_to(np.asarray(p.g2_sens, dtype=float), (na, 6))
+    M = np.asarray(p.misalignment, dtype=float)
+    enabled = set(TERMS) - set(p.disabled)
+    draws = {"switch_on_bias": np.zeros(na), "g_sens": np.array(g_nom),
+             "g2_sens": np.array(g2_nom)}
+    per_axis: dict[str, list] = {}  # term -> [array (n,) or None per axis]
+
+    def put(term, j, value):
+        if term in enabled:
+            per_axis.setdefault(term, [None] * na)[j] = value
+
+    for j, name in enumerate(axes):
+        ai = AXES[name]
+        w = truth_rate[:, ai]
+        if p.bias:
+            put("constant_bias", j, np.full(n, p.bias))
+        if p.switch_on_bias_sigma:
+            b = _stream(seed, "switch_on_bias", ai).standard_normal() * p.switch_on_bias_sigma
+            draws["switch_on_bias"][j] = b
+            put("switch_on_bias", j, np.full(n, b))
+        if p.arw and "arw" in enabled:
+            put("arw", j, _stream(seed, "arw", ai).standard_normal(n) * (p.arw * math.sqrt(fs)))
+        if p.bias_instability and "bias_instability" in enabled:
+            put("bias_instability", j, _bias_instability(
+                n, fs, p.bias_instability, p.bi_band, p.bi_per_decade,
+                _stream(seed, "bias_instability", ai)))
+        if p.rrw and "rrw" in enabled:
+            steps = _stream(seed, "rrw", ai).standard_normal(n) * (p.rrw * math.sqrt(dt))
+            put("rrw", j, np.cumsum(steps) - 0.5 * steps)  # mean over each interval
+        if p.rate_ramp:
+            put("rate_ramp", j, p.rate_ramp * (np.arange(n) + 0.5) * dt)
+        if p.scale_factor or p.sf_nonlinearity or (p.sf_temp_coeff and dT is not None):
+            k = p.scale_factor if dT is None else p.scale_factor + p.sf_temp_coeff * dT
+            put("scale_factor", j, k * w + p.sf_nonlinearity * w * np.abs(w) / p.full_scale)
+        if np.any(M[ai]):
+            others = [b for b in range(3) if b != ai]
+            put("misalignment", j, truth_rate[:, others] @ M[ai, others])
+        if p.g_sens_switch_on_sigma:
+            draws["g_sens"][j] += (_stream(seed, "g_switch_on", ai).standard_normal(3)
+                                   * p.g_sens_switch_on_sigma)
+        if p.g2_sens_switch_on_sigma:
+            draws["g2_sens"][j] += (_stream(seed, "g2_switch_on", ai).standard_normal(6)
+                                    * p.g2_sens_switch_on_sigma)
+        if np.any(draws["g_sens"][j]):
+            put("g_sensitivity", j, f @ draws["g_sens"][j])
+        if np.any(draws["g2_sens"][j]):
+            d = draws["g2_sens"][j]
+            fx, fy, fz = f[:, 0], f[:, 1], f[:, 2]
+            put("g2_sensitivity", j, (d[0] * fx + d[3] * fy + d[5] * fz) * fx
+                + (d[1] * fy + d[4] * fz) * fy + d[2] * fz * fz)
+        if dT is not None and (p.temp_coeff or p.temp_coeff2):
+            put("temperature", j, (p.temp_coeff + p.temp_coeff2 * dT) * dT
+                + (0.0 if Tdot is None else (p.temp_rate_coeff + p.temp_cross_coeff * dT) * Tdot))
+        elif Tdot is not None and (p.temp_rate_coeff or p.temp_cross_coeff):
+            cross = 0.0 if dT is None else p.temp_cross_coeff * dT
+            put("temperature", j, (p.temp_rate_coeff + cross) * Tdot)
+
+    terms = {}
+    for t in TERMS:
+        if t in per_axis:
+            terms[t] = np.stack([np.zeros(n) if v is None else v for v in per_axis[t]], axis=1)
+    idx = [AXES[a] for a in axes]
+    cont = truth_rate[:, idx].copy()
+    for k, v in terms.items():
+        if k != "quantization":
+            cont += v
+    if "quantization" in enabled and p.quantization:
+        Q = p.quantization
+        qterm = np.empty((n, na))
+        for j, name in enumerate(axes):
+            phase = _stream(seed, "quantization", AXES[name]).uniform(0.0, 1.0)
+            counts = np.floor(np.cumsum(cont[:, j]) * (dt / Q) + phase)
+            inc = np.diff(counts, prepend=0.0) * Q
+            qterm[:, j] = inc * fs - cont[:, j]
+        terms["quantization"] = qterm
+        raw = cont + qterm
+    else:
+        raw = cont
+    return FogOutput(raw=raw, terms=terms, draws=draws, axes=tuple(axes))

@@ -1,0 +1,147 @@
+"""Writing and reading simulated runs.
+
+A simulation directory holds, per run, ``<run>.npz`` (arrays, SI, units in every name) and
+``<run>.json`` (metadata), and last ``simulation.json``, the manifest. Every file is written to a
+temporary name in the same directory and renamed into place, and the manifest is written only
+when every run is complete: a directory without ``simulation.json`` is incomplete.
+
+Arrays in ``<run>.npz`` (n samples, a = number of sensitive axes):
+
+=============================  =========  ===============================================
+name                           shape      meaning
+=============================  =========  ===============================================
+t_s                            (n,)       sample start time, s
+truth_rate_rps                 (n, 3)     true inertial rate on sensor x, y, z, rad/s
+table_rate_rps                 (n, 3)     the same without the Earth's rate, rad/s
+specific_force_g               (n, 3)     accelerometer truth at the FOG site, g
+gravity_g                      (n, 3)     gravity projection on sensor axes, g
+tilt_rad, turn_rad             (n,)       joint angles
+tilt_rate_rps, turn_rate_rps   (n,)       joint rates
+tilt_cmd_rad                   (n,)       tilt command
+turn_rate_cmd_rps              (n,)       turntable rate command
+fog_quat, tilt_quat,           (n, 4)     orientations in the world frame (w, x, y, z)
+turntable_quat
+fog_pos_m                      (n, 3)     FOG site position
+chamber_c, coil_c              (n,)       chamber and coil temperature, deg C
+coil_rate_c_per_s              (n,)       coil dT/dt, deg C/s
+raw_rps                        (n, a)     FOG output (angle increment / interval), rad/s
+term_<name>_rps                (n, a)     each error term's contribution, rad/s
+=============================  =========  ===============================================
+
+``raw_rps = truth_rate_rps[:, axes] + sum of term_*_rps``.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import platform
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["atomic_write_bytes", "atomic_write_text", "write_run", "read_run", "versions",
+           "write_manifest"]
+
+
+def atomic_write_bytes(path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` through a temporary file and a rename."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".part")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def atomic_write_text(path: Path, text: str) -> None:
+    atomic_write_bytes(path, text.encode())
+
+
+def versions() -> dict:
+    """Versions of what produced a file."""
+    import mujoco
+    import scipy
+
+    try:
+        from importlib.metadata import version
+
+        fb = version("fogbench")
+    except Exception:  # running from a source tree that is not installed
+        fb = "unknown"
+    return {"fogbench": fb, "python": platform.python_version(), "numpy": np.__version__,
+            "scipy": scipy.__version__, "mujoco": mujoco.__version__}
+
+
+def run_arrays(rd) -> dict[str, np.ndarray]:
+    """The arrays of a RunData, named as in the table above."""
+    tr, th = rd.truth, rd.thermal
+    arr = {
+        "t_s": tr.t, "truth_rate_rps": tr.rate, "table_rate_rps": tr.table_rate,
+        "specific_force_g": tr.specific_force, "gravity_g": tr.gravity,
+        "tilt_rad": tr.tilt, "turn_rad": tr.turn, "tilt_rate_rps": tr.tilt_rate,
+        "turn_rate_rps": tr.turn_rate, "tilt_cmd_rad": tr.tilt_cmd,
+        "turn_rate_cmd_rps": tr.turn_rate_cmd, "fog_quat": tr.fog_quat, "tilt_quat": tr.tilt_quat,
+        "turntable_quat": tr.turntable_quat, "fog_pos_m": tr.fog_pos,
+        "chamber_c": th.chamber, "coil_c": th.coil, "coil_rate_c_per_s": th.coil_rate,
+        "raw_rps": rd.fog.raw,
+    }
+    for name, v in rd.fog.terms.items():
+        arr[f"term_{name}_rps"] = v
+    return arr
+
+
+def run_metadata(scenario, rd) -> dict:
+    from fogcomp.units import DPH
+
+    return {
+        "scenario": scenario.name, "scenario_file": scenario.path, "run": rd.run.name,
+        "seed": rd.run.seed, "sample_rate_hz": rd.fs, "samples": rd.n, "axes": list(rd.axes),
+        "duration_s": rd.n / rd.fs, "fog_preset": scenario.fog_preset,
+        "fog_source": scenario.fog_source,
+        "switch_on_draws": {
+            "switch_on_bias_dph": (rd.fog.draws["switch_on_bias"] / DPH).tolist(),
+            "g_sens_dph_per_g": (rd.fog.draws["g_sens"] / DPH).tolist(),
+            "g2_sens_dph_per_g2": (rd.fog.draws["g2_sens"] / DPH).tolist(),
+        },
+        "terms": sorted(rd.fog.terms),
+        "physics_steps": rd.truth.physics_steps,
+        "settled_hold_fast_path_s": rd.truth.settled_fast_path_s,
+        "versions": versions(),
+    }
+
+
+def write_run(out: Path, scenario, rd) -> tuple[Path, Path]:
+    """Write ``<run>.npz`` and ``<run>.json`` into ``out`` atomically."""
+    out = Path(out)
+    buf = io.BytesIO()
+    np.savez_compressed(buf, **run_arrays(rd))
+    npz, js = out / f"{rd.run.name}.npz", out / f"{rd.run.name}.json"
+    atomic_write_bytes(npz, buf.getvalue())
+    atomic_write_text(js, json.dumps(run_metadata(scenario, rd), indent=2))
+    return npz, js
+
+
+def write_manifest(out: Path, scenario, run_names: list[str]) -> Path:
+    """Write ``simulation.json`` last: its presence marks a complete directory."""
+    doc = {"scenario": scenario.name, "scenario_file": scenario.path,
+           "scenario_text": scenario.text, "runs": run_names, "versions": versions()}
+    path = Path(out) / "simulation.json"
+    atomic_write_text(path, json.dumps(doc, indent=2))
+    return path
+
+
+def read_run(path: Path) -> dict[str, np.ndarray]:
+    """Arrays of a ``<run>.npz`` (no pickle)."""
+    with np.load(path, allow_pickle=False) as z:
+        return {k: z[k] for k in z.files}

@@ -1,0 +1,273 @@
+"""The MuJoCo two-axis rate table (``rate_table.xml`` beside this file) and its truth.
+
+The table is driven open-loop by servo commands built from a motion program (``sim.motion``) and
+rolled out with ``mujoco.rollout`` in C. Truth at the FOG is what MuJoCo's ``gyro`` and
+``accelerometer`` sensors at the FOG site read, averaged over each FOG sample interval (a FOG
+outputs angle increments), plus the Earth's rate added analytically (``sim.earth``).
+
+Static holds longer than ``settle_time`` are simulated until the table has settled and then
+continued at the settled state: a table at rest under a constant command stays at rest, and a
+14-hour thermal run would otherwise cost 50 million physics steps. The fast path checks that the
+table has really settled (joint rates below 1e-9 rad/s) and simulates in full when it has not.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import mujoco
+import numpy as np
+from mujoco import rollout
+
+from fogcomp.units import G0
+
+from . import earth
+from .motion import Hold, segment_commands
+
+__all__ = ["TableConfig", "Truth", "load_model", "simulate_truth", "MODEL_PATH"]
+
+MODEL_PATH = Path(__file__).with_name("rate_table.xml")
+
+# sensor layout (name -> slice in sensordata), fixed by rate_table.xml; checked at load
+_SENSORS = {
+    "fog_gyro": 3, "fog_accel": 3, "fog_quat": 4, "fog_pos": 3, "tilt_angle": 1,
+    "tilt_rate": 1, "turn_angle": 1, "turn_rate": 1, "tilt_quat": 4, "turntable_quat": 4,
+}
+SETTLE_RATE_TOL = 1e-9  # rad/s
+
+
+@dataclass(frozen=True)
+class TableConfig:
+    """Rate-table and site parameters (SI).
+
+    radius : FOG mounting offset from the turntable axis, m (along the turntable's x).
+    height : FOG height above the turntable top, m.
+    latitude : lab latitude, rad.  heading : azimuth of the table's x (tilt) axis from north, rad.
+    gravity : local gravity magnitude, m/s^2.  physics_dt : maximum physics step, s.
+    tilt_slew : peak tilt rate of a tilt move, rad/s.  settle_time : see module doc, s.
+    turn_accel : turntable acceleration limit of rate changes, rad/s^2.
+    earth_rate : include the Earth's rotation in the truth.
+    """
+
+    radius: float = 0.0
+    height: float = 0.06
+    latitude: float = math.radians(45.0)
+    heading: float = 0.0
+    gravity: float = G0
+    physics_dt: float = 1e-3
+    tilt_slew: float = math.radians(20.0)
+    settle_time: float = 5.0
+    turn_accel: float = math.radians(200.0)
+    earth_rate: bool = True
+
+
+@dataclass(frozen=True)
+class Truth:
+    """Ground truth at the FOG sample rate; arrays of n samples.
+
+    t : sample start times, s.  rate : angular rate of the sensor frame w.r.t. inertial space,
+    in sensor axes, averaged over each sample, rad/s, shape (n, 3).  table_rate : the same without
+    the Earth's rate (what MuJoCo's gyro reads), rad/s.  specific_force : accelerometer reading
+    averaged over each sample, in g (9.80665 m/s^2), shape (n, 3).  gravity : gravity projection on
+    the sensor axes (no motion), in g, shape (n, 3).  tilt, turn : joint angles, rad.
+    tilt_rate, turn_rate : joint rates, rad/s.  tilt_cmd, turn_rate_cmd : commands, rad and rad/s.
+    fog_quat, tilt_quat, turntable_quat : body/site orientations (w, x, y, z) in the world frame.
+    fog_pos : FOG site position, m, shape (n, 3).
+    """
+
+    t: np.ndarray
+    fs: float
+    rate: np.ndarray
+    table_rate: np.ndarray
+    specific_force: np.ndarray
+    gravity: np.ndarray
+    tilt: np.ndarray
+    turn: np.ndarray
+    tilt_rate: np.ndarray
+    turn_rate: np.ndarray
+    tilt_cmd: np.ndarray
+    turn_rate_cmd: np.ndarray
+    fog_quat: np.ndarray
+    tilt_quat: np.ndarray
+    turntable_quat: np.ndarray
+    fog_pos: np.ndarray
+    physics_steps: int = 0
+    settled_fast_path_s: float = 0.0
+
+    def as_arrays(self) -> dict[str, np.ndarray]:
+        return {k: v for k, v in self.__dict__.items() if isinstance(v, np.ndarray)}
+
+
+def load_model(cfg: TableConfig = TableConfig(), dt: float | None = None) -> mujoco.MjModel:
+    """Compile the rate table with the FOG at ``cfg.radius`` and the given physics step."""
+    spec = mujoco.MjSpec.from_file(str(MODEL_PATH))
+    spec.body("fog").pos = [cfg.radius, 0.0, cfg.height]
+    spec.option.gravity = [0.0, 0.0, -cfg.gravity]
+    spec.option.timestep = cfg.physics_dt if dt is None else dt
+    model = spec.compile()
+    for name, dim in _SENSORS.items():
+        sid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, name)
+        if sid < 0 or model.sensor_dim[sid] != dim:
+            raise RuntimeError(f"{MODEL_PATH}: sensor {name!r} missing or not of dimension {dim}")
+    return model
+
+
+def _sensor_slices(model) -> dict[str, slice]:
+    out = {}
+    for name in _SENSORS:
+        sid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, name)
+        a = int(model.sensor_adr[sid])
+        out[name] = slice(a, a + int(model.sensor_dim[sid]))
+    return out
+
+
+def substeps_for(fs: float, max_dt: float) -> tuple[int, float]:
+    """Physics steps per FOG sample and the physics step: the largest dt <= max_dt dividing 1/fs."""
+    k = max(1, math.ceil((1.0 / fs) / max_dt - 1e-9))
+    return k, 1.0 / (fs * k)
+
+
+def _quat_rotate_inv(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Rotate world vectors v (n,3) into the frame whose orientation is q (n,4) (w,x,y,z)."""
+    w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    # rows of R^T (R maps frame -> world)
+    r = np.empty(q.shape[:1] + (3, 3))
+    r[:, 0, 0] = 1 - 2 * (y * y + z * z); r[:, 1, 0] = 2 * (x * y - z * w); r[:, 2, 0] = 2 * (x * z + y * w)
+    r[:, 0, 1] = 2 * (x * y + z * w); r[:, 1, 1] = 1 - 2 * (x * x + z * z); r[:, 2, 1] = 2 * (y * z - x * w)
+    r[:, 0, 2] = 2 * (x * z - y * w); r[:, 1, 2] = 2 * (y * z + x * w); r[:, 2, 2] = 1 - 2 * (x * x + y * y)
+    # r currently holds R^T laid out as r[:, j, i] = R[i, j]; v_frame = R^T v
+    return np.einsum("nji,nj->ni", r, v)
+
+
+class _Roller:
+    """Rolls the model out chunk by chunk, carrying the state, reducing to FOG samples at once.
+
+    Per FOG sample of ``k`` physics steps it keeps the mean of every sensor over the sample and
+    the sensor values at the sample's first step (``mujoco.rollout`` reports the sensors of the
+    state before each step, so step j describes time j*dt).
+    """
+
+    CHUNK_SAMPLES = 20_000
+
+    def __init__(self, model, k: int):
+        self.model, self.k = model, k
+        self.data = mujoco.MjData(model)
+        self.nstate = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+        self.state = np.zeros(self.nstate)
+        self.turn_cmd = 0.0  # integral of the turntable rate command, rad
+        self.steps = 0
+        self.means: list[np.ndarray] = []
+        self.firsts: list[np.ndarray] = []
+        self.ctrl_means: list[np.ndarray] = []
+        self.ctrl_firsts: list[np.ndarray] = []
+
+    def set_tilt(self, tilt: float):
+        mujoco.mj_resetData(self.model, self.data)
+        self.data.qpos[0] = tilt
+        self.data.ctrl[0] = tilt
+        mujoco.mj_getState(self.model, self.data, self.state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+
+    def run(self, tilt_cmd: np.ndarray, rate_cmd: np.ndarray) -> float:
+        """Roll out servo commands (n,), n a multiple of k; returns max |qvel| of the last sample.
+
+        The turntable's angle command is the running integral of its rate command.
+        """
+        dt = self.model.opt.timestep
+        angle = self.turn_cmd + dt * (np.cumsum(rate_cmd) - rate_cmd)
+        self.turn_cmd = float(angle[-1] + dt * rate_cmd[-1])
+        ctrl = np.stack([tilt_cmd, angle, rate_cmd], axis=1)
+        k, n = self.k, ctrl.shape[0]
+        step = self.CHUNK_SAMPLES * k
+        vmax = 0.0
+        for a in range(0, n, step):
+            c = ctrl[a:a + step]
+            st, sd = rollout.rollout(self.model, self.data, self.state[None], c[None])
+            ns = len(c) // k
+            sd = sd[0].reshape(ns, k, -1)
+            self.means.append(sd.mean(axis=1))
+            self.firsts.append(sd[:, 0].copy())
+            cc = c[:, [0, 2]].reshape(ns, k, -1)
+            self.ctrl_means.append(cc.mean(axis=1))
+            self.ctrl_firsts.append(cc[:, 0].copy())
+            nq, nv = self.model.nq, self.model.nv
+            vmax = float(np.max(np.abs(st[0, -k:, 1 + nq:1 + nq + nv])))
+            self.state = st[0, -1].copy()
+        self.steps += n
+        return vmax
+
+    def repeat_last(self, ns: int, dt_total: float):
+        """Continue the settled state for ``ns`` more samples (time advances, nothing moves)."""
+        for lst in (self.means, self.firsts, self.ctrl_means, self.ctrl_firsts):
+            lst.append(np.repeat(lst[-1][-1:], ns, axis=0))
+        self.state[0] += dt_total
+
+    def collect(self):
+        return (np.concatenate(self.means), np.concatenate(self.firsts),
+                np.concatenate(self.ctrl_means), np.concatenate(self.ctrl_firsts))
+
+
+def simulate_truth(segments, fs: float, cfg: TableConfig = TableConfig(), tilt0: float = 0.0,
+                   progress=None) -> Truth:
+    """Run a motion program on the table and return the truth at sample rate ``fs`` (Hz).
+
+    Every segment's duration must be a whole number of samples (the scenario loader checks).
+    ``progress``, if given, is called with the fraction done after each segment.
+    """
+    k, dt = substeps_for(fs, cfg.physics_dt)
+    model = load_model(cfg, dt)
+    sl = _sensor_slices(model)
+    roller = _Roller(model, k)
+    roller.set_tilt(tilt0)
+    settle_samples = max(1, int(round(cfg.settle_time * fs)))
+    total = sum(seg.duration for seg in segments)
+    fast_s, done, tilt, last_rate = 0.0, 0.0, tilt0, 0.0
+    for seg in segments:
+        ns = int(round(seg.duration * fs))
+        if abs(ns - seg.duration * fs) > 1e-6 * max(1.0, ns):
+            raise ValueError(f"segment {seg.kind} lasts {seg.duration} s, not a whole number of "
+                             f"samples at {fs} Hz")
+
+        def commands(n=None, tilt_before=tilt, rate_before=last_rate):
+            return segment_commands(seg, dt, tilt_before, cfg.tilt_slew, n=n,
+                                    rate_before=rate_before, turn_accel=cfg.turn_accel)
+
+        if isinstance(seg, Hold) and ns > settle_samples + 1:
+            tc, rc, tilt_after = commands(n=settle_samples * k)
+            vmax = roller.run(tc, rc)
+            rest = ns - settle_samples
+            if vmax < SETTLE_RATE_TOL and rc[-1] == 0.0:
+                roller.repeat_last(rest, rest / fs)
+                fast_s += rest / fs
+            else:
+                tc, rc, _ = commands()
+                roller.run(tc[settle_samples * k:], rc[settle_samples * k:])
+        else:
+            tc, rc, tilt_after = commands()
+            roller.run(tc, rc)
+        tilt, last_rate = tilt_after, float(rc[-1])
+        done += seg.duration
+        if progress is not None:
+            progress(done / total)
+
+    means, firsts, cmean, cfirst = roller.collect()
+    ns = means.shape[0]
+    table_rate = means[:, sl["fog_gyro"]]
+    fog_quat = firsts[:, sl["fog_quat"]]
+    world_up = np.broadcast_to([0.0, 0.0, cfg.gravity / G0], (ns, 3))
+    gravity = _quat_rotate_inv(fog_quat, world_up)
+    rate = table_rate.copy()
+    if cfg.earth_rate:
+        w_world = earth.earth_rate_world(cfg.latitude, cfg.heading)
+        rate += _quat_rotate_inv(fog_quat, np.broadcast_to(w_world, (ns, 3)))
+    return Truth(
+        t=np.arange(ns) / fs, fs=fs, rate=rate, table_rate=table_rate,
+        specific_force=means[:, sl["fog_accel"]] / G0, gravity=gravity,
+        tilt=firsts[:, sl["tilt_angle"]][:, 0], turn=firsts[:, sl["turn_angle"]][:, 0],
+        tilt_rate=means[:, sl["tilt_rate"]][:, 0], turn_rate=means[:, sl["turn_rate"]][:, 0],
+        tilt_cmd=cfirst[:, 0], turn_rate_cmd=cmean[:, 1],
+        fog_quat=fog_quat, tilt_quat=firsts[:, sl["tilt_quat"]],
+        turntable_quat=firsts[:, sl["turntable_quat"]], fog_pos=firsts[:, sl["fog_pos"]],
+        physics_steps=roller.steps, settled_fast_path_s=fast_s,
+    )

@@ -1,0 +1,421 @@
+"""Scenario files (TOML) loaded into frozen, validated objects in SI units.
+
+Every key a person writes carries its unit in its name (``rate_dps``, ``arw_deg_rt_h``); the
+loader converts once, here. An unknown key, a missing required key, a wrong type or a value out
+of range is refused with a :class:`ScenarioError` naming the file, the key and what was expected.
+The format is documented in the README ("Scenario files").
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from fogcomp import units as U
+
+from .fog import TERMS, FogParams
+from .motion import ConstantRate, Hold, Positions, RateSteps, SineRate, positions_move_fits
+from .rate_table import TableConfig
+from .thermal import ThermalHold, ThermalProgram, ThermalRamp
+
+__all__ = ["ScenarioError", "Scenario", "Run", "load_scenario", "load_presets", "PRESETS_PATH"]
+
+PRESETS_PATH = Path(__file__).with_name("presets.toml")
+
+
+class ScenarioError(ValueError):
+    """A scenario file is malformed; the message names the file, the key and what was expected."""
+
+
+class _Table:
+    """A TOML table being read: tracks which keys were used, so the rest can be refused."""
+
+    def __init__(self, data: dict, where: str, file: str):
+        if not isinstance(data, dict):
+            raise ScenarioError(f"{file}: {where}: expected a table, got {type(data).__name__}")
+        self.data, self.where, self.file = data, where, file
+        self.used: set[str] = set()
+
+    def err(self, key: str, msg: str) -> ScenarioError:
+        return ScenarioError(f"{self.file}: {self.where} key '{key}': {msg}")
+
+    def has(self, key: str) -> bool:
+        return key in self.data
+
+    def get(self, key: str, kind: str, default: Any = ..., lo=None, hi=None, lo_open=False,
+            choices=None):
+        """Read ``key`` as ``kind``: 'float', 'int', 'str', 'bool', 'floats', 'strs', 'table',
+        'tables'. Ranges are inclusive unless ``lo_open``."""
+        self.used.add(key)
+        if key not in self.data:
+            if default is ...:
+                raise self.err(key, f"missing (required; expected {_describe(kind, lo, hi, choices)})")
+            return default
+        v = self.data[key]
+        if kind == "float":
+            if isinstance(v, bool) or not isinstance(v, (int, float)):
+                raise self.err(key, f"expected a number, got {v!r}")
+            v = float(v)
+            if not math.isfinite(v):
+                raise self.err(key, f"expected a finite number, got {v!r}")
+            self._range(key, v, lo, hi, lo_open)
+        elif kind == "int":
+            if isinstance(v, bool) or not isinstance(v, int):
+                raise self.err(key, f"expected an integer, got {v!r}")
+            self._range(key, v, lo, hi, lo_open)
+        elif kind == "str":
+            if not isinstance(v, str):
+                raise self.err(key, f"expected a string, got {v!r}")
+            if choices is not None and v not in choices:
+                raise self.err(key, f"expected one of {sorted(choices)}, got {v!r}")
+        elif kind == "bool":
+            if not isinstance(v, bool):
+                raise self.err(key, f"expected true or false, got {v!r}")
+        elif kind == "floats":
+            if not isinstance(v, list) or not v or not all(
+                    isinstance(x, (int, float)) and not isinstance(x, bool) for x in v):
+                raise self.err(key, f"expected a non-empty list of numbers, got {v!r}")
+            v = [float(x) for x in v]
+            for x in v:
+                self._range(key, x, lo, hi, lo_open)
+        elif kind == "strs":
+            if not isinstance(v, list) or not all(isinstance(x, str) for x in v):
+                raise self.err(key, f"expected a list of strings, got {v!r}")
+            if choices is not None:
+                for x in v:
+                    if x not in choices:
+                        raise self.err(key, f"expected entries from {sorted(choices)}, got {x!r}")
+        elif kind == "table":
+            if not isinstance(v, dict):
+                raise self.err(key, f"expected a table, got {v!r}")
+        elif kind == "tables":
+            if not isinstance(v, list) or not all(isinstance(x, dict) for x in v):
+                raise self.err(key, f"expected an array of tables ([[{key}]]), got {v!r}")
+        elif kind == "any":
+            pass
+        else:  # pragma: no cover
+            raise ValueError(kind)
+        return v
+
+    def _range(self, key, v, lo, hi, lo_open):
+        if lo is not None and (v <= lo if lo_open else v < lo):
+            raise self.err(key, f"expected a value {'>' if lo_open else '>='} {lo}, got {v}")
+        if hi is not None and v > hi:
+            raise self.err(key, f"expected a value <= {hi}, got {v}")
+
+    def done(self):
+        extra = sorted(set(self.data) - self.used)
+        if extra:
+            raise ScenarioError(f"{self.file}: {self.where}: unknown key(s) {extra}; "
+                                f"allowed: {sorted(self.used)}")
+
+
+def _describe(kind, lo, hi, choices):
+    what = {"float": "a number", "int": "an integer", "str": "a string", "bool": "true/false",
+            "floats": "a list of numbers", "strs": "a list of strings", "table": "a table",
+            "tables": "an array of tables"}.get(kind, kind)
+    if choices:
+        what += f" from {sorted(choices)}"
+    if lo is not None:
+        what += f", >= {lo}"
+    if hi is not None:
+        what += f", <= {hi}"
+    return what
+
+
+# ---------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Run:
+    """One power-on of the FOG: its motion program, thermal program and seed."""
+
+    name: str
+    seed: int
+    motion: tuple
+    thermal: ThermalProgram | None
+    tilt0: float = 0.0
+
+    @property
+    def duration(self) -> float:
+        return float(sum(s.duration for s in self.motion))
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A validated scenario, SI units inside."""
+
+    path: str
+    name: str
+    description: str
+    fs: float
+    table: TableConfig
+    fog: FogParams
+    fog_preset: str | None
+    fog_source: str
+    axes: tuple[str, ...]
+    runs: tuple[Run, ...]
+    ambient_c: float = 20.0
+    extra: dict = field(default_factory=dict, compare=False)  # sections later stages read
+    text: str = ""
+
+    def run(self, name: str) -> Run:
+        for r in self.runs:
+            if r.name == name:
+                return r
+        raise KeyError(f"{self.path}: no run named {name!r}; runs: {[r.name for r in self.runs]}")
+
+
+# Scenario [fog] keys: key -> (FogParams field, factor to SI, kind, lo)
+_FOG_KEYS = {
+    "bias_dph": ("bias", U.DPH, "float", None),
+    "switch_on_bias_dph": ("switch_on_bias_sigma", U.DPH, "float", 0.0),
+    "arw_deg_rt_h": ("arw", U.DEG_RT_H, "float", 0.0),
+    "bias_instability_dph": ("bias_instability", U.DPH, "float", 0.0),
+    "rrw_dph_rt_h": ("rrw", U.DPH_RT_H, "float", 0.0),
+    "rate_ramp_dph_per_h": ("rate_ramp", U.DPH_PER_H, "float", None),
+    "quantization_arcsec": ("quantization", U.ARCSEC, "float", 0.0),
+    "scale_factor_ppm": ("scale_factor", U.PPM, "float", None),
+    "sf_nonlinearity_ppm": ("sf_nonlinearity", U.PPM, "float", None),
+    "sf_temp_coeff_ppm_per_c": ("sf_temp_coeff", U.PPM, "float", None),
+    "full_scale_dps": ("full_scale", U.DPS, "float", 0.0),
+    "g_sens_switch_on_dph_per_g": ("g_sens_switch_on_sigma", U.DPH, "float", 0.0),
+    "g2_sens_switch_on_dph_per_g2": ("g2_sens_switch_on_sigma", U.DPH, "float", 0.0),
+    "temp_ref_c": ("temp_ref", 1.0, "float", -273.15),
+    "temp_coeff_dph_per_c": ("temp_coeff", U.DPH, "float", None),
+    "temp_coeff2_dph_per_c2": ("temp_coeff2", U.DPH, "float", None),
+    "temp_rate_coeff_dph_per_c_per_min": ("temp_rate_coeff", U.DPH * 60.0, "float", None),
+    "temp_cross_coeff_dph_per_c_per_c_per_min": ("temp_cross_coeff", U.DPH * 60.0, "float", None),
+}
+
+
+def load_presets(path: Path = PRESETS_PATH) -> dict[str, dict]:
+    """The FOG presets: name -> table of [fog] keys (datasheet units)."""
+    with open(path, "rb") as f:
+        return tomllib.load(f)
+
+
+def _fog(tbl: _Table, fs: float) -> tuple[FogParams, str | None, str, tuple[str, ...]]:
+    preset_name = tbl.get("preset", "str", None)
+    values: dict[str, Any] = {}
+    source = "given in the scenario file"
+    if preset_name is not None:
+        presets = load_presets()
+        if preset_name not in presets:
+            raise tbl.err("preset", f"expected one of {sorted(presets)}, got {preset_name!r}")
+        values.update(presets[preset_name])
+        source = values.pop("source", f"preset {preset_name}")
+    values.update({k: v for k, v in tbl.data.items() if k != "preset"})
+    merged = _Table(values, tbl.where, tbl.file)
+    merged.used.add("source")
+    kw: dict[str, Any] = {}
+    for key, (fld, factor, kind, lo) in _FOG_KEYS.items():
+        v = merged.get(key, kind, None, lo=lo)
+        if v is not None:
+            kw[fld] = v * factor
+    axes = tuple(merged.get("axes", "strs", ["z"], choices={"x", "y", "z"}))
+    if not axes or len(set(axes)) != len(axes):
+        raise merged.err("axes", f"expected 1 to 3 distinct axes among x, y, z, got {list(axes)}")
+    band = merged.get("bias_instability_band_hz", "floats", None, lo=0.0, lo_open=True)
+    if band is not None:
+        if len(band) != 2 or not band[0] < band[1]:
+            raise merged.err("bias_instability_band_hz", f"expected [low, high] with low < high, "
+                             f"got {band}")
+        if band[1] > fs / 2:
+            raise merged.err("bias_instability_band_hz", f"the band's top {band[1]} Hz is above "
+                             f"the Nyquist frequency {fs / 2} Hz of sample_rate_hz")
+        kw["bi_band"] = tuple(band)
+    elif kw.get("bias_instability"):
+        kw["bi_band"] = (min(1e-4, fs / 20), min(0.1, fs / 2))
+    per_decade = merged.get("bias_instability_per_decade", "int", None, lo=1, hi=20)
+    if per_decade is not None:
+        kw["bi_per_decade"] = per_decade
+    for key, fld, n in (("g_sens_dph_per_g", "g_sens", 3), ("g2_sens_dph_per_g2", "g2_sens", 6)):
+        v = merged.get(key, "any", None)
+        if v is None:
+            continue
+        rows = v if (isinstance(v, list) and v and isinstance(v[0], list)) else [v]
+        ok = all(isinstance(r, list) and len(r) == n and all(
+            isinstance(x, (int, float)) and not isinstance(x, bool) for x in r) for r in rows)
+        if not ok or len(rows) not in (1, len(axes)):
+            raise merged.err(key, f"expected a list of {n} numbers (deg/h per g"
+                             f"{'^2' if n == 6 else ''}), or one such list per axis "
+                             f"({len(axes)}), got {v!r}")
+        arr = [[x * U.DPH for x in r] for r in rows]
+        kw[fld] = tuple(map(tuple, arr)) if len(arr) > 1 else tuple(arr[0])
+    mis = merged.get("misalignment_mrad", "any", None)
+    if mis is not None:
+        ok = (isinstance(mis, list) and len(mis) == 3 and all(
+            isinstance(r, list) and len(r) == 3 and all(isinstance(x, (int, float)) for x in r)
+            for r in mis))
+        if not ok or any(mis[i][i] != 0 for i in range(3)):
+            raise merged.err("misalignment_mrad", f"expected a 3x3 list of lists with a zero "
+                             f"diagonal (row a: axis a's sensitivity to x, y, z rates), got {mis!r}")
+        kw["misalignment"] = tuple(tuple(x * 1e-3 for x in r) for r in mis)
+    disabled = merged.get("disabled_terms", "strs", [], choices=set(TERMS))
+    kw["disabled"] = tuple(disabled)
+    merged.done()
+    return FogParams(**kw), preset_name, source, axes
+
+
+def _table_cfg(tbl: _Table) -> TableConfig:
+    cfg = TableConfig(
+        radius=tbl.get("radius_m", "float", 0.0, lo=0.0, hi=0.14),
+        height=tbl.get("height_m", "float", 0.06, lo=0.045, hi=0.5),
+        latitude=math.radians(tbl.get("latitude_deg", "float", 45.0, lo=-90.0, hi=90.0)),
+        heading=math.radians(tbl.get("heading_deg", "float", 0.0, lo=-360.0, hi=360.0)),
+        gravity=tbl.get("gravity_mps2", "float", U.G0, lo=9.7, hi=9.84),
+        physics_dt=tbl.get("physics_dt_s", "float", 1e-3, lo=1e-5, hi=5e-3),
+        tilt_slew=math.radians(tbl.get("tilt_slew_dps", "float", 20.0, lo=0.1, hi=500.0)),
+        settle_time=tbl.get("settle_time_s", "float", 5.0, lo=0.5, hi=600.0),
+        turn_accel=math.radians(tbl.get("turn_accel_dps2", "float", 200.0, lo=1.0, hi=5000.0)),
+        earth_rate=tbl.get("earth_rate", "bool", True),
+    )
+    tbl.done()
+    return cfg
+
+
+def _thermal(tbl: _Table) -> ThermalProgram:
+    start = tbl.get("start_c", "float", lo=-80.0, hi=150.0)
+    tau = tbl.get("coil_time_constant_s", "float", 600.0, lo=0.0)
+    steps = []
+    for i, st in enumerate(tbl.get("steps", "tables", [])):
+        s = _Table(st, f"{tbl.where}.steps[{i}]", tbl.file)
+        if s.has("hold_s"):
+            steps.append(ThermalHold(s.get("hold_s", "float", lo=0.0, lo_open=True)))
+        elif s.has("ramp_to_c"):
+            steps.append(ThermalRamp(s.get("ramp_to_c", "float", lo=-80.0, hi=150.0),
+                                     s.get("rate_c_per_min", "float", lo=0.0, lo_open=True,
+                                           hi=30.0) / 60.0))
+        else:
+            raise s.err("hold_s", "a thermal step needs 'hold_s' (a hold) or 'ramp_to_c' with "
+                        "'rate_c_per_min' (a ramp)")
+        s.done()
+    tbl.done()
+    return ThermalProgram(start=start, steps=tuple(steps), coil_time_constant=tau)
+
+
+_MOTION_TYPES = ("hold", "rate", "rate_steps", "sine", "positions")
+
+
+def _motion(tbl: _Table, fs: float):
+    kind = tbl.get("type", "str", choices=set(_MOTION_TYPES))
+    tilt_deg = tbl.get("tilt_deg", "float", None, lo=-360.0, hi=360.0) if kind != "positions" else None
+    tilt = None if tilt_deg is None else math.radians(tilt_deg)
+    if kind == "hold":
+        seg = Hold(tbl.get("duration_s", "float", lo=0.0, lo_open=True), tilt=tilt)
+    elif kind == "rate":
+        seg = ConstantRate(tbl.get("duration_s", "float", lo=0.0, lo_open=True),
+                           math.radians(tbl.get("rate_dps", "float", lo=-1000.0, hi=1000.0)),
+                           tilt=tilt)
+    elif kind == "rate_steps":
+        seg = RateSteps(tuple(math.radians(r) for r in tbl.get("rates_dps", "floats", lo=-1000.0,
+                                                               hi=1000.0)),
+                        tbl.get("step_s", "float", lo=0.0, lo_open=True), tilt=tilt)
+    elif kind == "sine":
+        seg = SineRate(tbl.get("duration_s", "float", lo=0.0, lo_open=True),
+                       math.radians(tbl.get("amplitude_dps", "float", lo=0.0, hi=1000.0)),
+                       tbl.get("frequency_hz", "float", lo=0.0, lo_open=True, hi=fs / 4),
+                       math.radians(tbl.get("offset_dps", "float", 0.0, lo=-1000.0, hi=1000.0)),
+                       tilt=tilt)
+    else:
+        seg = Positions(
+            tuple(math.radians(x) for x in tbl.get("tilts_deg", "floats", lo=-360.0, hi=360.0)),
+            tuple(math.radians(x) for x in tbl.get("headings_deg", "floats", lo=-720.0,
+                                                   hi=720.0)),
+            dwell=tbl.get("dwell_s", "float", lo=0.0, lo_open=True),
+            move_time=tbl.get("move_s", "float", lo=0.0, lo_open=True),
+            max_rate=math.radians(tbl.get("move_rate_dps", "float", 30.0, lo=0.1, hi=1000.0)),
+            max_accel=math.radians(tbl.get("move_accel_dps2", "float", 60.0, lo=0.1,
+                                           hi=5000.0)),
+        )
+    tbl.done()
+    return seg
+
+
+def _check_whole_samples(tbl: _Table, seg, fs: float):
+    parts = {"hold": [("duration_s", seg.duration)], "rate": [("duration_s", seg.duration)],
+             "sine": [("duration_s", seg.duration)],
+             "rate_steps": [("step_s", getattr(seg, "step_duration", 0.0))],
+             "positions": [("dwell_s", getattr(seg, "dwell", 0.0)),
+                           ("move_s", getattr(seg, "move_time", 0.0))]}[seg.kind]
+    for key, val in parts:
+        n = val * fs
+        if abs(n - round(n)) > 1e-6 * max(1.0, n):
+            raise tbl.err(key, f"expected a whole number of samples at sample_rate_hz = {fs:g}, "
+                          f"got {val:g} s = {n:g} samples")
+
+
+def load_scenario(path: str | Path, extra_sections: tuple[str, ...] = ()) -> Scenario:
+    """Load and validate a scenario file. Raises ScenarioError naming file, key and expectation.
+
+    ``extra_sections`` names further top-level tables that a later stage validates (they are
+    kept, unread, in ``Scenario.extra``); any other unknown table is refused.
+    """
+    path = Path(path)
+    file = str(path)
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise ScenarioError(f"{file}: cannot read ({exc.strerror})") from None
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"{file}: not valid TOML ({exc})") from None
+    top = _Table(doc, "top level", file)
+    sc = _Table(top.get("scenario", "table"), "[scenario]", file)
+    name = sc.get("name", "str")
+    description = sc.get("description", "str", "")
+    fs = sc.get("sample_rate_hz", "float", lo=0.0, lo_open=True, hi=10_000.0)
+    ambient = sc.get("ambient_c", "float", 20.0, lo=-80.0, hi=150.0)
+    sc.done()
+    table = _table_cfg(_Table(top.get("table", "table", {}), "[table]", file))
+    fog, preset, source, axes = _fog(_Table(top.get("fog", "table"), "[fog]", file), fs)
+    default_thermal = None
+    if top.has("thermal"):
+        default_thermal = _thermal(_Table(top.get("thermal", "table"), "[thermal]", file))
+    runs = []
+    seen = set()
+    run_tables = top.get("runs", "tables")
+    if not run_tables:
+        raise top.err("runs", "expected at least one [[runs]] table")
+    for i, rt in enumerate(run_tables):
+        r = _Table(rt, f"[[runs]][{i}]", file)
+        rname = r.get("name", "str")
+        if rname in seen:
+            raise r.err("name", f"run names must be unique; {rname!r} appears twice")
+        seen.add(rname)
+        r.where = f"[[runs]] '{rname}'"
+        seed = r.get("seed", "int", lo=0)
+        tilt0 = math.radians(r.get("start_tilt_deg", "float", 0.0, lo=-180.0, hi=180.0))
+        segs = []
+        for j, mt in enumerate(r.get("motion", "tables")):
+            mtab = _Table(mt, f"{r.where} motion[{j}]", file)
+            seg = _motion(mtab, fs)
+            _check_whole_samples(mtab, seg, fs)
+            segs.append(seg)
+        if not segs:
+            raise r.err("motion", "expected at least one [[runs.motion]] segment")
+        tilt = tilt0
+        for j, seg in enumerate(segs):
+            if isinstance(seg, Positions):
+                msg = positions_move_fits(seg, tilt, table.tilt_slew)
+                if msg:
+                    raise ScenarioError(f"{file}: {r.where} motion[{j}] key 'move_s': {msg}")
+                tilt = seg.tilts[-1]
+            elif seg.tilt is not None:
+                tilt = seg.tilt
+        thermal = default_thermal
+        if r.has("thermal"):
+            thermal = _thermal(_Table(r.get("thermal", "table"), f"{r.where} thermal", file))
+        r.done()
+        runs.append(Run(rname, seed, tuple(segs), thermal, tilt0))
+    extra = {}
+    for sec in extra_sections:
+        if top.has(sec):
+            extra[sec] = top.get(sec, "any")
+    top.done()
+    return Scenario(path=file, name=name, description=description, fs=fs, table=table, fog=fog,
+                    fog_preset=preset, fog_source=source, axes=axes, runs=tuple(runs),
+                    ambient_c=ambient, extra=extra, text=text)

@@ -130,15 +130,22 @@ def substeps_for(fs: float, max_dt: float) -> tuple[int, float]:
 
 
 def _quat_rotate_inv(q: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Rotate world vectors v (n,3) into the frame whose orientation is q (n,4) (w,x,y,z)."""
+    """Express world vectors v (n, 3) in the frame of orientation q (n, 4), (w, x, y, z).
+
+    R (frame -> world) is the usual rotation matrix of q; the result is R^T v.
+    """
     w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
-    # rows of R^T (R maps frame -> world)
-    r = np.empty(q.shape[:1] + (3, 3))
-    r[:, 0, 0] = 1 - 2 * (y * y + z * z); r[:, 1, 0] = 2 * (x * y - z * w); r[:, 2, 0] = 2 * (x * z + y * w)
-    r[:, 0, 1] = 2 * (x * y + z * w); r[:, 1, 1] = 1 - 2 * (x * x + z * z); r[:, 2, 1] = 2 * (y * z - x * w)
-    r[:, 0, 2] = 2 * (x * z - y * w); r[:, 1, 2] = 2 * (y * z + x * w); r[:, 2, 2] = 1 - 2 * (x * x + y * y)
-    # r currently holds R^T laid out as r[:, j, i] = R[i, j]; v_frame = R^T v
-    return np.einsum("nji,nj->ni", r, v)
+    R = np.empty(q.shape[:1] + (3, 3))
+    R[:, 0, 0] = 1 - 2 * (y * y + z * z)
+    R[:, 0, 1] = 2 * (x * y - w * z)
+    R[:, 0, 2] = 2 * (x * z + w * y)
+    R[:, 1, 0] = 2 * (x * y + w * z)
+    R[:, 1, 1] = 1 - 2 * (x * x + z * z)
+    R[:, 1, 2] = 2 * (y * z - w * x)
+    R[:, 2, 0] = 2 * (x * z - w * y)
+    R[:, 2, 1] = 2 * (y * z + w * x)
+    R[:, 2, 2] = 1 - 2 * (x * x + y * y)
+    return np.einsum("nji,nj->ni", R, v)
 
 
 class _Roller:

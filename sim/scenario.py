@@ -52,7 +52,8 @@ class _Table:
         self.used.add(key)
         if key not in self.data:
             if default is ...:
-                raise self.err(key, f"missing (required; expected {_describe(kind, lo, hi, choices)})")
+                raise self.err(key, "missing (required; expected "
+                               f"{_describe(kind, lo, hi, choices, lo_open)})")
             return default
         v = self.data[key]
         if kind == "float":
@@ -113,14 +114,14 @@ class _Table:
                                 f"allowed: {sorted(self.used)}")
 
 
-def _describe(kind, lo, hi, choices):
+def _describe(kind, lo, hi, choices, lo_open=False):
     what = {"float": "a number", "int": "an integer", "str": "a string", "bool": "true/false",
             "floats": "a list of numbers", "strs": "a list of strings", "table": "a table",
             "tables": "an array of tables"}.get(kind, kind)
     if choices:
         what += f" from {sorted(choices)}"
     if lo is not None:
-        what += f", >= {lo}"
+        what += f", {'>' if lo_open else '>='} {lo}"
     if hi is not None:
         what += f", <= {hi}"
     return what
@@ -281,7 +282,7 @@ def _thermal(tbl: _Table) -> ThermalProgram:
     tau = tbl.get("coil_time_constant_s", "float", 600.0, lo=0.0)
     steps = []
     for i, st in enumerate(tbl.get("steps", "tables", [])):
-        s = _Table(st, f"{tbl.where}.steps[{i}]", tbl.file)
+        s = _Table(st, f"{tbl.where} steps[{i}]", tbl.file)
         if s.has("hold_s"):
             steps.append(ThermalHold(s.get("hold_s", "float", lo=0.0, lo_open=True)))
         elif s.has("ramp_to_c"):

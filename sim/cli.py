@@ -37,9 +37,9 @@ class Progress:
 def _cmd_simulate(args) -> int:
     from .io import write_manifest, write_run
     from .rig import simulate_run
-    from .scenario import load_scenario
+    from .scenario import RUNNER_SECTIONS, load_scenario
 
-    scenario = load_scenario(args.scenario, extra_sections=EXTRA_SECTIONS)
+    scenario = load_scenario(args.scenario, extra_sections=RUNNER_SECTIONS)
     out = Path(args.out)
     names = []
     for run in scenario.runs:
@@ -59,14 +59,53 @@ def _cmd_simulate(args) -> int:
     return 0
 
 
+def _cmd_run(args) -> int:
+    from .report import write_run_dir
+    from .runner import run_scenario
+
+    name = Path(args.scenario).stem
+    out = Path(args.out) if args.out else Path("reports") / name
+    say = (lambda msg: None) if args.quiet else (
+        lambda msg: print(f"[{name}] {msg}", file=sys.stderr, flush=True))
+    res = run_scenario(args.scenario, progress=say, methods=args.method)
+    write_run_dir(res, out, recording=not args.no_recording)
+    failed = _failed(res.metrics)
+    print(f"{name}: wrote {out}/report.md, metrics.json"
+          + ("" if args.no_recording else ", recording.rrd")
+          + (f"; FAILED methods: {', '.join(failed)}" if failed else ""))
+    return 0
+
+
+def _failed(doc) -> list[str]:
+    out = set()
+    for prot in doc["protocols"].values():
+        for by_method in prot["runs"].values():
+            for lab, m in by_method.items():
+                if isinstance(m, dict) and m.get("status") == "failed":
+                    out.add(lab)
+    return sorted(out)
+
+
+def _cmd_suite(args) -> int:
+    from .suite import run_suite
+
+    return run_suite(scenario_dir=Path(args.scenarios), out=Path(args.out), check=args.check,
+                     jobs=args.jobs, only_ci=args.ci, recording=not args.no_recording,
+                     quiet=args.quiet, names=args.scenario)
+
+
+def _cmd_view(args) -> int:
+    from .recording import view
+
+    return view(Path(args.dir))
+
+
 def _cmd_bench(args) -> int:
     from .bench import main as bench_main
 
     return bench_main(seconds=args.seconds, repeats=args.repeats)
 
 
-# Top-level scenario tables read by later stages (the runner).
-EXTRA_SECTIONS = ("protocol", "methods", "bounds", "paper")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -79,6 +118,31 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--run", action="append", help="only this run (repeatable)")
     s.add_argument("--quiet", action="store_true", help="no progress on stderr")
     s.set_defaults(func=_cmd_simulate)
+
+    r = sub.add_parser("run", help="simulate a scenario, fit and score its methods, write a report")
+    r.add_argument("scenario", help="scenario file (TOML)")
+    r.add_argument("--out", help="run directory (default reports/<scenario name>)")
+    r.add_argument("--method", action="append", help="only this method label (repeatable)")
+    r.add_argument("--no-recording", action="store_true", help="do not write recording.rrd")
+    r.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    r.set_defaults(func=_cmd_run)
+
+    u = sub.add_parser("suite", help="run every scenario and write reports/README.md")
+    u.add_argument("--scenarios", default="scenarios", help="scenario folder (default scenarios)")
+    u.add_argument("--out", default="reports", help="reports folder (default reports)")
+    u.add_argument("--check", action="store_true",
+                   help="exit 1 when a metric leaves the bounds its scenario file declares")
+    u.add_argument("--jobs", type=int, default=2, help="parallel processes (default 2)")
+    u.add_argument("--ci", action="store_true",
+                   help="only the scenarios marked ci = true (the CI subset)")
+    u.add_argument("--scenario", action="append", help="only this scenario name (repeatable)")
+    u.add_argument("--no-recording", action="store_true", help="do not write recordings")
+    u.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    u.set_defaults(func=_cmd_suite)
+
+    v = sub.add_parser("view", help="open a run directory's recording in the Rerun viewer")
+    v.add_argument("dir", help="run directory (holding recording.rrd)")
+    v.set_defaults(func=_cmd_view)
 
     b = sub.add_parser("bench", help="print throughput of the rig and the error model")
     b.add_argument("--seconds", type=float, default=600.0,
@@ -96,6 +160,9 @@ def main(argv=None) -> int:
     try:
         return args.func(args)
     except ScenarioError as exc:
+        print(f"fogbench: error: {exc}", file=sys.stderr)
+        return 2
+    except (ValueError, FileNotFoundError) as exc:
         print(f"fogbench: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

@@ -24,6 +24,8 @@ from .thermal import ThermalHold, ThermalProgram, ThermalRamp
 __all__ = ["ScenarioError", "Scenario", "Run", "load_scenario", "load_presets", "PRESETS_PATH"]
 
 PRESETS_PATH = Path(__file__).with_name("presets.toml")
+# Top-level tables the runner reads and validates (sim.protocol); others are refused.
+RUNNER_SECTIONS = ("compensation", "protocols", "methods", "bounds", "paper")
 
 
 class ScenarioError(ValueError):

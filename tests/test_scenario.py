@@ -58,9 +58,11 @@ def test_good_scenario_loads_in_si(tmp_path):
 
 @pytest.mark.parametrize("path", sorted((ROOT / "scenarios").glob("*.toml")), ids=lambda p: p.name)
 def test_bundled_scenarios_load(path):
-    from sim.cli import EXTRA_SECTIONS
+    from sim.protocol import load_plan
+    from sim.scenario import RUNNER_SECTIONS
 
-    sc = load_scenario(path, extra_sections=EXTRA_SECTIONS)
+    sc = load_scenario(path, extra_sections=RUNNER_SECTIONS)
+    load_plan(sc)
     assert sc.runs
 
 

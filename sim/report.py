@@ -1,0 +1,426 @@
+"""Run directories: metrics.json, report.md with PNG figures, and the data.
+
+Figures are drawn with matplotlib's Agg backend. Long records are decimated for display only
+(the report says so); every metric is computed on the full record.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from fogcomp import metrics as M  # noqa: E402
+from fogcomp.allan import oadev  # noqa: E402
+from fogcomp.units import DPH, DPS  # noqa: E402
+
+from .io import atomic_write_bytes, atomic_write_text, run_arrays  # noqa: E402
+from .runner import ScenarioResult, TERM_NAMES, thermal_segments, write_metrics  # noqa: E402
+
+__all__ = ["write_run_dir", "KEY_METRICS", "fmt"]
+
+MAX_PLOT_POINTS = 4000
+KEY_METRICS = ("std_dps", "rmse_dph", "bias_stability_100s_dph", "angle_error_final_deg",
+               "improvement_rmse_pct", "fit_time_s")
+COLORS = {"raw": "0.6", "oracle": "0.2", "truth": "tab:green"}
+METHOD_COLORS = ["tab:blue", "tab:orange", "tab:red", "tab:purple", "tab:brown", "tab:pink",
+                 "tab:cyan", "tab:olive"]
+
+
+def _color(label: str, labels: list[str]):
+    if label in COLORS:
+        return COLORS[label]
+    others = [x for x in labels if x not in COLORS]
+    return METHOD_COLORS[others.index(label) % len(METHOD_COLORS)] if label in others else None
+
+
+def fmt(v, metric: str = "") -> str:
+    if v is None:
+        return "–"
+    if isinstance(v, str):
+        return v
+    if not isinstance(v, (int, float)) or not math.isfinite(v):
+        return "–"
+    if metric.endswith("_pct"):
+        return f"{v:.1f}"
+    if metric.endswith("time_s"):
+        return f"{v:.3g}"
+    a = abs(v)
+    if a != 0 and (a < 1e-3 or a >= 1e5):
+        return f"{v:.3e}"
+    return f"{v:.4g}"
+
+
+def _save(fig, path: Path):
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    atomic_write_bytes(path, buf.getvalue())
+
+
+def _decimate(t, *ys):
+    n = t.size
+    step = max(1, int(math.ceil(n / MAX_PLOT_POINTS)))
+    return (t[::step],) + tuple(y[::step] for y in ys), step
+
+
+def _unit(scored) -> tuple[float, str]:
+    """Plot rates in deg/s when the table moves, in deg/h when it is static."""
+    rng = np.ptp(scored.piece.truth) / DPS
+    return (DPS, "deg/s") if rng > 0.01 or abs(np.mean(scored.piece.truth)) > 0.01 * DPS else \
+        (DPH, "deg/h")
+
+
+def fig_timeseries(it, path: Path) -> int:
+    u, uname = _unit(it)
+    p = it.piece
+    fig, axes = plt.subplots(2, 1, figsize=(10, 6.5), sharex=True)
+    labels = [k for k in it.outputs if k not in ("raw", "oracle")]
+    (t, *ys), step = _decimate(p.t - p.t[0], p.truth, *[it.outputs[k] for k in ["raw", "oracle"] + labels])
+    truth, raw, oracle, *outs = ys
+    ax = axes[0]
+    ax.plot(t, raw / u, color=COLORS["raw"], lw=0.6, label="raw")
+    for lab, y in zip(labels, outs):
+        ax.plot(t, y / u, lw=0.8, label=lab, color=_color(lab, labels))
+    ax.plot(t, truth / u, color=COLORS["truth"], lw=1.4, ls="--", label="truth")
+    ax.set_ylabel(f"rate, {uname}")
+    ax.legend(loc="upper right", fontsize=8, ncol=3)
+    ax.set_title(f"{it.protocol} / {it.run}: output and truth")
+    ax = axes[1]
+    ax.plot(t, (raw - truth) / u, color=COLORS["raw"], lw=0.6, label="raw")
+    ax.plot(t, (oracle - truth) / u, color=COLORS["oracle"], lw=0.6, label="oracle")
+    for lab, y in zip(labels, outs):
+        ax.plot(t, (y - truth) / u, lw=0.8, label=lab, color=_color(lab, labels))
+    ax.set_ylabel(f"error vs truth, {uname}")
+    ax.set_xlabel("time in the scored piece, s")
+    ax.legend(loc="upper right", fontsize=8, ncol=3)
+    _save(fig, path)
+    return step
+
+
+def fig_psd(it, path: Path):
+    p = it.piece
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    nper = min(p.raw.size, 1024)
+    for lab, y in it.outputs.items():
+        f, s = M.psd(y - np.mean(y), p.fs, nperseg=nper)
+        ax.loglog(f[1:], s[1:] / DPS**2, lw=0.9 if lab != "raw" else 0.7,
+                  color=_color(lab, list(it.outputs)), label=lab)
+    ax.set_xlabel("frequency, Hz")
+    ax.set_ylabel("PSD, (deg/s)^2/Hz")
+    ax.set_title(f"{it.protocol} / {it.run}: PSD before and after compensation (Welch, mean removed)")
+    ax.legend(fontsize=8)
+    _save(fig, path)
+
+
+def fig_allan(it, path: Path) -> bool:
+    p = it.piece
+    if p.raw.size < 64:
+        return False
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    for lab, y in it.outputs.items():
+        taus, ad = oadev(y - p.truth, p.fs)
+        ax.loglog(taus, ad / DPH, lw=1.0 if lab != "raw" else 0.8,
+                  color=_color(lab, list(it.outputs)),
+                  label=lab, marker="." if lab in ("raw", "oracle") else None)
+    ax.set_xlabel("averaging time tau, s")
+    ax.set_ylabel("Allan deviation of (output - truth), deg/h")
+    ax.set_title(f"{it.protocol} / {it.run}: overlapping Allan deviation")
+    ax.grid(True, which="both", lw=0.3)
+    ax.legend(fontsize=8)
+    _save(fig, path)
+    return True
+
+
+def fig_thermal(res: ScenarioResult, run: str, path: Path) -> bool:
+    rd = res.data[run]
+    if rd.run.thermal is None or not rd.run.thermal.steps:
+        return False
+    j = res.scenario.axes.index(res.plan.axis)
+    k = max(1, int(round(100.0 * rd.fs)))
+    t = M.smooth(rd.truth.t, rd.fs, 100.0) / 3600
+    bias = M.smooth(rd.fog.raw[:, j] - rd.truth_axis(j), rd.fs, 100.0) / DPH
+    fig, axes = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
+    axes[0].plot(rd.truth.t / 3600, rd.thermal.chamber, label="chamber")
+    axes[0].plot(rd.truth.t / 3600, rd.thermal.coil, label="coil")
+    axes[0].set_ylabel("temperature, deg C")
+    ax2 = axes[0].twinx()
+    ax2.plot(rd.truth.t / 3600, rd.thermal.coil_rate * 60, color="tab:red", lw=0.7,
+             label="coil dT/dt")
+    ax2.set_ylabel("coil dT/dt, deg C/min")
+    axes[0].legend(loc="upper left", fontsize=8)
+    axes[0].set_title(f"{run}: thermal program (paper 002, Fig. 3)")
+    axes[1].plot(t, bias, lw=0.8, color="0.4", label=f"raw bias (100 s means, {k} samples)")
+    axes[1].set_ylabel("bias, deg/h")
+    axes[1].set_xlabel("time, h")
+    axes[1].legend(fontsize=8)
+    _save(fig, path)
+    return True
+
+
+def fig_coefficients(res: ScenarioResult, protocol: str, path: Path) -> bool:
+    runs = res.metrics["protocols"][protocol]["runs"]
+    rows = []
+    for run, by_method in runs.items():
+        for lab, m in by_method.items():
+            if isinstance(m, dict) and "coef_errors_dph" in m:
+                rows.append((run, lab, m))
+    if not rows:
+        return False
+    fig, ax = plt.subplots(figsize=(10, 4.5))
+    true = rows[0][2]["coef_true_dph"]
+    x = np.arange(len(TERM_NAMES))
+    ax.plot(x, [true[n] for n in TERM_NAMES], "ks", ms=8, label=f"true ({rows[0][0]})",
+            zorder=5)
+    labels = sorted({r[1] for r in rows})
+    width = 0.8 / max(1, len(labels))
+    for i, lab in enumerate(labels):
+        r = next(r for r in rows if r[1] == lab and r[0] == rows[0][0])
+        est = [r[2]["coef_true_dph"][n] + r[2]["coef_errors_dph"][n] for n in TERM_NAMES]
+        ax.bar(x + (i - (len(labels) - 1) / 2) * width, est, width, alpha=0.7, label=lab)
+    ax.set_xticks(x, [f"{n}" for n in TERM_NAMES])
+    ax.set_ylabel("deg/h (d0), deg/h/g (d1-d3), deg/h/g^2 (d4-d9)")
+    ax.set_title(f"{protocol}: identified vs true coefficients, first power-on (paper 004, Table 1)")
+    ax.axhline(0, color="0.7", lw=0.5)
+    ax.legend(fontsize=8)
+    _save(fig, path)
+    return True
+
+
+def _table(header: list[str], rows: list[list[str]]) -> str:
+    out = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    out += ["| " + " | ".join(r) + " |" for r in rows]
+    return "\n".join(out)
+
+
+def _paper_value(plan, method, metric, run, segment=None):
+    for pv in plan.paper:
+        if pv.method == method and pv.metric == metric and pv.run in (None, run) and \
+                pv.segment == segment:
+            return pv
+    return None
+
+
+def render_report(res: ScenarioResult, fig_names: dict, decimation: dict) -> str:
+    sc, plan, doc = res.scenario, res.plan, res.metrics
+    L = [f"# {sc.name}", "", sc.description, "",
+         f"Scenario file: `{Path(sc.path).name}`. FOG: preset `{sc.fog_preset}` "
+         f"({sc.fog_source}); axis `{plan.axis}`; {sc.fs:g} Hz. Wall time {res.wall_s:.1f} s.", ""]
+    for note in plan.notes:
+        L += [f"> {note}", ""]
+    L += ["Rows: `raw` is the FOG output; `oracle` is the raw output minus the true deterministic "
+          "error terms (bias, switch-on bias, scale factor, misalignment, g and g^2, temperature, "
+          "rate ramp), the floor no model of those terms can beat; each method is fitted on the "
+          "protocol's fit samples and scored on its score samples against the simulation's truth.",
+          "", "Metric units are in their names: `_dps` deg/s, `_dph` deg/h, `_deg` deg, `_pct` "
+          "percent improvement over raw (positive is better), `_s` seconds.", ""]
+    runs_tab = [[name, str(r["seed"]), str(r["samples"]), f"{r['duration_s']:g}",
+                 f"{r['settled_hold_fast_path_s']:g}"] for name, r in doc["runs"].items()]
+    L += ["## Runs (power-ons)", "", _table(["run", "seed", "samples", "duration, s",
+                                            "settled-hold fast path, s"], runs_tab), ""]
+    for prot in plan.protocols:
+        pd = doc["protocols"][prot.name]
+        flag = " — IN-SAMPLE (the paper's own protocol: scored on data it was fitted on)" \
+            if prot.in_sample else " — held out"
+        L += [f"## Protocol `{prot.name}`{flag}", ""]
+        if prot.description:
+            L += [prot.description, ""]
+        L += [f"Fit on: {'; '.join(s.describe() for s in prot.fit)}. Score on: "
+              f"{'; '.join(s.describe() for s in prot.score)}."
+              + (f" Per run: {', '.join(prot.runs)}." if prot.per_run else "")
+              + (f" Data smoothed by {prot.smooth_s:g} s means before fitting and scoring."
+                 if prot.smooth_s else "")
+              + (f" First {prot.skip_s:g} s of each run left out." if prot.skip_s else ""), ""]
+        for run, by_method in pd["runs"].items():
+            metrics = [m for m in KEY_METRICS if any(
+                isinstance(v, dict) and m in v for v in by_method.values())]
+            header = ["method"] + metrics + ["status"]
+            rows = []
+            for lab, m in by_method.items():
+                if m.get("status") == "failed":
+                    rows.append([lab] + ["–"] * len(metrics) + [f"FAILED: {m['error']}"])
+                    continue
+                cells = []
+                for met in metrics:
+                    c = fmt(m.get(met), met)
+                    pv = _paper_value(plan, lab, met, run)
+                    if pv is not None:
+                        c += f" (paper: {fmt(pv.value, met)})"
+                    cells.append(c)
+                rows.append([lab] + cells + ["ok"])
+            L += [f"### {run}", "", _table(header, rows), ""]
+            seg = _segment_table(res, prot.name, run)
+            if seg:
+                L += [seg, ""]
+            for kind in ("timeseries", "psd", "allan"):
+                fn = fig_names.get((prot.name, run, kind))
+                if fn:
+                    L += [f"![{kind} {run}]({fn})", ""]
+            if (prot.name, run) in decimation and decimation[(prot.name, run)] > 1:
+                L += [f"(Time series decimated by {decimation[(prot.name, run)]} for display "
+                      "only; metrics use every sample.)", ""]
+        fn = fig_names.get((prot.name, None, "coefficients"))
+        if fn:
+            L += [_coef_table(res, prot.name), "", f"![coefficients]({fn})", ""]
+        L += [_fit_notes(pd), ""]
+    fn = fig_names.get(("thermal",))
+    if fn:
+        L += ["## Temperature and bias", "", f"![thermal]({fn})", ""]
+    L += ["## Versions", "", ", ".join(f"{k} {v}" for k, v in doc["versions"].items()), ""]
+    return "\n".join(L)
+
+
+def _segment_table(res: ScenarioResult, protocol: str, run: str) -> str:
+    item = next((it for it in res.scored if it.protocol == protocol and it.run == run), None)
+    if item is None or run not in res.data:
+        return ""
+    segs = thermal_segments(res.data[run], item.piece)
+    if not segs:
+        return ""
+    p = item.piece
+    rows = []
+    labels = list(item.outputs)
+    for name, a, b in segs:
+        mask = (p.t >= a) & (p.t < b)
+        if mask.sum() < 3:
+            continue
+        cells = [name]
+        for lab in labels:
+            y = item.outputs[lab][mask]
+            v = M.std(y) / DPH if p.fs <= 0.0100001 else M.bias_stability(y, p.fs, 100.0) / DPH
+            pv = _paper_value(res.plan, lab, "bias_stability_100s_dph", run, name)
+            cells.append(fmt(v) + (f" ({fmt(pv.value)})" if pv else ""))
+        rows.append(cells)
+    if not rows:
+        return ""
+    return ("Bias stability B_s per thermal segment, deg/h (paper 002 eq. 5 on 100 s means; "
+            "paper's Table 1/2 value in brackets where given):\n\n"
+            + _table(["segment"] + labels, rows))
+
+
+def _coef_table(res: ScenarioResult, protocol: str) -> str:
+    runs = res.metrics["protocols"][protocol]["runs"]
+    fits = res.metrics["protocols"][protocol]["fits"]
+    out = []
+    for lab, recs in fits.items():
+        for i, rec in enumerate(recs):
+            if rec.get("status") != "ok" or not rec.get("coefficients"):
+                continue
+            run = list(runs)[i] if i < len(runs) else "?"
+            m = runs.get(run, {}).get(lab, {})
+            if "coef_true_dph" not in m:
+                continue
+            true = m["coef_true_dph"]
+            ident = rec.get("identifiability") or {}
+            se = ident.get("stderr_dph", {})
+            rows = []
+            for n in TERM_NAMES:
+                est = true[n] + m["coef_errors_dph"][n]
+                s = se.get(n)
+                rows.append([n, fmt(true[n]), fmt(est), "not identified" if n in se and s is None
+                             else (fmt(s) if s is not None else "–")])
+            out.append(f"**{lab}, {run}** (rank {ident.get('rank', '?')} of "
+                       f"{ident.get('n_terms', '?')}, condition {fmt(ident.get('condition'))}):\n\n"
+                       + _table(["coef", "true", "estimated", "std error"], rows))
+            if ident.get("summary"):
+                out.append("\n".join(f"- {s}" for s in ident["summary"]))
+            break  # the first power-on; all are in metrics.json
+    if not out:
+        return ""
+    return ("Identified coefficients against the true ones of the power-on (d0 deg/h, d1-d3 "
+            "deg/h/g, d4-d9 deg/h/g^2; paper 004 Table 1 layout):\n\n" + "\n\n".join(out))
+
+
+def _fit_notes(pd: dict) -> str:
+    lines = ["Fits:"]
+    for lab, recs in pd["fits"].items():
+        for rec in recs[:1]:
+            bits = [f"`{lab}`: {rec.get('status')}"]
+            if rec.get("fit_time_s") is not None:
+                bits.append(f"fit {rec['fit_time_s']:.3g} s")
+            for k in ("level", "n_iter", "n_epochs", "initial_loss"):
+                if k in rec:
+                    bits.append(f"{k} {fmt(rec[k])}")
+            if rec.get("warnings"):
+                bits.append("warnings: " + "; ".join(w[:160] for w in rec["warnings"][:3]))
+            if rec.get("error"):
+                bits.append(f"error: {rec['error']}")
+            lines.append("- " + ", ".join(bits) + (f" (first of {len(recs)} fits)"
+                                                   if len(recs) > 1 else ""))
+    return "\n".join(lines)
+
+
+def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_data: bool = True
+                  ) -> Path:
+    """Write metrics.json, report.md, figures, data (and recording.rrd) into ``out``.
+
+    Everything is written into a temporary sibling directory, which then replaces ``out``: an
+    interrupted run leaves the previous complete directory, never a half-written one.
+    """
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}.", suffix=".part"))
+    try:
+        fig_names, decim = {}, {}
+        (tmp / "figures").mkdir()
+        seen_runs = set()
+        for it in res.scored:
+            base = f"{it.protocol}__{it.run}"
+            key = (it.protocol, it.run)
+            if key in decim:
+                continue
+            decim[key] = fig_timeseries(it, tmp / "figures" / f"{base}__timeseries.png")
+            fig_names[(it.protocol, it.run, "timeseries")] = f"figures/{base}__timeseries.png"
+            fig_psd(it, tmp / "figures" / f"{base}__psd.png")
+            fig_names[(it.protocol, it.run, "psd")] = f"figures/{base}__psd.png"
+            if fig_allan(it, tmp / "figures" / f"{base}__allan.png"):
+                fig_names[(it.protocol, it.run, "allan")] = f"figures/{base}__allan.png"
+            seen_runs.add(it.run)
+        for prot in res.plan.protocols:
+            if fig_coefficients(res, prot.name, tmp / "figures" / f"{prot.name}__coefficients.png"):
+                fig_names[(prot.name, None, "coefficients")] = \
+                    f"figures/{prot.name}__coefficients.png"
+        first = next(iter(res.data))
+        if fig_thermal(res, first, tmp / "figures" / "thermal.png"):
+            fig_names[("thermal",)] = "figures/thermal.png"
+        write_metrics(tmp / "metrics.json", res.metrics)
+        atomic_write_text(tmp / "report.md", render_report(res, fig_names, decim))
+        atomic_write_text(tmp / "scenario.toml", res.scenario.text)
+        if save_data:
+            (tmp / "data").mkdir()
+            for name, rd in res.data.items():
+                buf = io.BytesIO()
+                np.savez_compressed(buf, **run_arrays(rd))
+                atomic_write_bytes(tmp / "data" / f"{name}.npz", buf.getvalue())
+            for it in res.scored:
+                buf = io.BytesIO()
+                np.savez_compressed(buf, t_s=it.piece.t, truth_rps=it.piece.truth,
+                                    **{f"{k}_rps": v for k, v in it.outputs.items()})
+                atomic_write_bytes(tmp / "data" / f"scored__{it.protocol}__{it.run}.npz",
+                                   buf.getvalue())
+        if recording:
+            from .recording import write_recording
+
+            write_recording(res, tmp / "recording.rrd")
+        if out.exists():
+            old = out.with_name(f".{out.name}.old")
+            if old.exists():
+                shutil.rmtree(old)
+            os.replace(out, old)
+            os.replace(tmp, out)
+            shutil.rmtree(old)
+        else:
+            os.replace(tmp, out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return out

@@ -1,0 +1,353 @@
+"""The scenario runner: simulate the runs, fit every method, score it against the truth.
+
+For every protocol and every (fit, score) pairing it fits each method on the fit samples (with the
+truth rate as the reference a calibration rig provides) and scores it on the score samples, beside
+the raw output and the oracle (raw minus the true deterministic error terms: the floor that no
+compensator of the error model can beat without also filtering the signal). A method that fails
+(diverges, or raises) is recorded as failed with its message and the run goes on.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+import traceback
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+import fogcomp
+from fogcomp import GyroData, metrics as M
+from fogcomp.units import DPH, DPS
+
+from .io import atomic_write_text, versions
+from .protocol import Plan, Protocol, Selection, expand, load_plan, select_indices
+from .rig import RunData, simulate_run
+from .scenario import RUNNER_SECTIONS, Scenario, load_scenario
+from .thermal import ThermalHold
+
+__all__ = ["run_scenario", "ScenarioResult", "Scored"]
+
+DETERMINISTIC = ("constant_bias", "switch_on_bias", "rate_ramp", "scale_factor", "misalignment",
+                 "g_sensitivity", "g2_sensitivity", "temperature")
+
+
+@dataclass
+class Piece:
+    """Selected (and possibly smoothed) samples of one run: inputs, truth, terms."""
+
+    run: str
+    fs: float
+    t: np.ndarray
+    raw: np.ndarray
+    truth: np.ndarray
+    g: np.ndarray
+    temp: np.ndarray
+    temp_rate: np.ndarray
+    oracle: np.ndarray
+
+    def gyro(self) -> GyroData:
+        return GyroData(rate=self.raw, fs=self.fs, g=self.g, temp=self.temp,
+                        temp_rate=self.temp_rate)
+
+
+@dataclass
+class Scored:
+    """One scored piece: the outputs of raw, oracle and every method."""
+
+    protocol: str
+    run: str
+    piece: Piece
+    outputs: dict[str, np.ndarray] = field(default_factory=dict)   # label -> compensated rate
+    metrics: dict[str, dict] = field(default_factory=dict)         # label -> metric -> value
+
+
+@dataclass
+class ScenarioResult:
+    scenario: Scenario
+    plan: Plan
+    data: dict[str, RunData]
+    scored: list[Scored]
+    fits: dict  # protocol -> method label -> list of fit records
+    metrics: dict
+    wall_s: float
+
+
+def _smooth(x: np.ndarray, k: int) -> np.ndarray:
+    n = (x.shape[0] // k) * k
+    return x[:n].reshape((n // k, k) + x.shape[1:]).mean(axis=1)
+
+
+def make_piece(rd: RunData, sel: Selection, prot: Protocol, axis_j: int) -> Piece:
+    idx = select_indices(sel, rd.run, rd.fs, prot.skip_s, rd.truth.table_rate)
+    if idx.size == 0:
+        raise ValueError(f"selection {sel.describe()} of protocol {prot.name!r} has no samples")
+    truth = rd.truth_axis(axis_j)
+    det = sum((rd.fog.terms[k][:, axis_j] for k in DETERMINISTIC if k in rd.fog.terms),
+              np.zeros(rd.n))
+    cols = dict(t=rd.truth.t, raw=rd.fog.raw[:, axis_j], truth=truth,
+                g=rd.truth.specific_force, temp=rd.thermal.coil, temp_rate=rd.thermal.coil_rate,
+                oracle=rd.fog.raw[:, axis_j] - det)
+    fs = rd.fs
+    if prot.smooth_s:
+        k = int(round(prot.smooth_s * fs))
+        # smooth contiguous runs of the selection only (blocks never straddle a gap)
+        breaks = np.flatnonzero(np.diff(idx) != 1) + 1
+        parts = np.split(idx, breaks)
+        out = {c: np.concatenate([_smooth(v[p], k) for p in parts if p.size >= k])
+               for c, v in cols.items()}
+        cols, fs = out, fs / k
+    else:
+        cols = {c: v[idx] for c, v in cols.items()}
+    return Piece(run=rd.run.name, fs=fs, **cols)
+
+
+def concat(pieces: list[Piece]) -> Piece:
+    if len(pieces) == 1:
+        return pieces[0]
+    return Piece(run="+".join(p.run for p in pieces), fs=pieces[0].fs,
+                 **{c: np.concatenate([getattr(p, c) for p in pieces])
+                    for c in ("t", "raw", "truth", "g", "temp", "temp_rate", "oracle")})
+
+
+def thermal_segments(rd: RunData, piece: Piece) -> list[tuple[str, float, float]]:
+    """(label, start_s, end_s) of the thermal program's holds and ramps."""
+    if rd.run.thermal is None or not rd.run.thermal.steps:
+        return []
+    prog = rd.run.thermal
+    out, t, temp = [], 0.0, prog.start
+    for st in prog.steps:
+        if isinstance(st, ThermalHold):
+            out.append((f"hold {temp:g} C", t, t + st.duration))
+            t += st.duration
+        else:
+            d = abs(st.to - temp) / st.rate
+            out.append((f"ramp {temp:g}..{st.to:g} C", t, t + d))
+            t, temp = t + d, st.to
+    return out
+
+
+def score(out: np.ndarray, piece: Piece, raw_ref: dict | None = None) -> dict:
+    """Metrics of a compensated output against the truth, units in every name."""
+    err = out - piece.truth
+    m = {
+        "std_dps": M.std(out) / DPS,
+        "std_dph": M.std(out) / DPH,
+        "rmse_dph": M.rmse(out, piece.truth) / DPH,
+        "mean_error_dph": float(np.mean(err)) / DPH,
+    }
+    ang = M.integrated_angle_error(out, piece.truth, piece.fs)
+    m["angle_error_final_deg"] = math.degrees(ang["angle_error_final_rad"])
+    m["angle_error_max_deg"] = math.degrees(ang["angle_error_max_rad"])
+    dur = out.size / piece.fs
+    if dur >= 300.0:
+        m["bias_stability_100s_dph"] = M.bias_stability(out, piece.fs, 100.0) / DPH
+    if raw_ref is not None:
+        for key, name in (("std_dps", "improvement_std_pct"), ("rmse_dph", "improvement_rmse_pct"),
+                          ("bias_stability_100s_dph", "improvement_bias_stability_pct")):
+            if key in m and raw_ref.get(key):
+                m[name] = 100.0 * (1.0 - m[key] / raw_ref[key])
+    return m
+
+
+def _coef_record(model) -> dict | None:
+    for attr in ("coef_dph", "coef_dict"):
+        fn = getattr(model, attr, None)
+        if callable(fn):
+            try:
+                return {k: float(v) for k, v in fn().items() if np.isscalar(v)}
+            except Exception:  # a method without coefficients for this fit
+                return None
+    return None
+
+
+def _ident_record(model) -> dict | None:
+    ident = getattr(model, "identifiability_", None)
+    if ident is None:
+        return None
+    rec = {"rank": int(ident.rank), "n_terms": int(ident.n_terms),
+           "condition": float(ident.condition), "summary": list(ident.summary)}
+    names = getattr(ident, "names", None)
+    stderr = getattr(ident, "stderr", None)
+    if names is not None and stderr is not None:
+        # the FLNN's d0..d9 are in rad/s per g^k: deg/h per g^k for people
+        rec["stderr_dph"] = {n: (None if not np.isfinite(s) else float(s) / DPH)
+                             for n, s in zip(names, np.asarray(stderr)) if n in TERM_NAMES}
+    return rec
+
+
+def run_scenario(path, progress=None, methods: list[str] | None = None) -> ScenarioResult:
+    """Simulate and score one scenario file. ``progress(message)`` reports each step."""
+    t_start = time.monotonic()
+    say = progress or (lambda msg: None)
+    sc = load_scenario(path, extra_sections=RUNNER_SECTIONS)
+    plan = load_plan(sc)
+    if methods:
+        unknown = sorted(set(methods) - {m.label for m in plan.methods})
+        if unknown:
+            raise ValueError(f"{sc.path}: no method labelled {unknown}; methods: "
+                             f"{[m.label for m in plan.methods]}")
+        plan = Plan(plan.protocols, tuple(m for m in plan.methods if m.label in methods),
+                    plan.bounds, plan.paper, plan.axis, plan.ci, plan.notes)
+    axis_j = sc.axes.index(plan.axis)
+    data = {}
+    for i, run in enumerate(sc.runs):
+        say(f"simulate {run.name} ({i + 1}/{len(sc.runs)}, {run.duration:g} s)")
+        data[run.name] = simulate_run(sc, run)
+
+    scored: list[Scored] = []
+    fits: dict = {}
+    for prot in plan.protocols:
+        fits[prot.name] = {m.label: [] for m in plan.methods}
+        for fit_sel, score_sel in expand(prot, sc):
+            fit_piece = concat([make_piece(data[s.run], s, prot, axis_j) for s in fit_sel])
+            pieces = [make_piece(data[s.run], s, prot, axis_j) for s in score_sel]
+            items = [Scored(prot.name, p.run, p) for p in pieces]
+            for it in items:
+                it.outputs["raw"] = it.piece.raw
+                it.outputs["oracle"] = it.piece.oracle
+                it.metrics["raw"] = score(it.piece.raw, it.piece)
+                it.metrics["oracle"] = score(it.piece.oracle, it.piece, it.metrics["raw"])
+            for ms in plan.methods:
+                say(f"{prot.name}: fit {ms.label} on {', '.join(s.describe() for s in fit_sel)}")
+                rec = {"fit_on": [s.describe() for s in fit_sel],
+                       "scored_on": [s.describe() for s in score_sel]}
+                model = None
+                with warnings.catch_warnings(record=True) as caught:
+                    warnings.simplefilter("always")
+                    try:
+                        model = fogcomp.make_method(ms.name, **ms.params)
+                        if model.random and "random_state" in model.get_params() and \
+                                model.get_params()["random_state"] is None:
+                            model.random_state = _method_seed(sc, prot, ms, fit_sel)
+                        t0 = time.perf_counter()
+                        model.fit(fit_piece.gyro(), fit_piece.truth)
+                        rec["fit_time_s"] = time.perf_counter() - t0
+                        rec["status"] = "ok"
+                    except Exception as exc:  # any failure of a method is reported, not fatal
+                        rec["status"] = "failed"
+                        rec["error"] = f"{type(exc).__name__}: {exc}"
+                        rec["traceback"] = traceback.format_exc(limit=3)
+                        model = None
+                    rec["warnings"] = sorted({f"{w.category.__name__}: {w.message}"
+                                              for w in caught})
+                if model is not None:
+                    rec["coefficients"] = _coef_record(model)
+                    rec["identifiability"] = _ident_record(model)
+                    for attr in ("level_", "n_iter_", "n_epochs_", "initial_loss_"):
+                        if hasattr(model, attr):
+                            v = getattr(model, attr)
+                            rec[attr.rstrip("_")] = v if isinstance(v, (int, str)) else float(v)
+                    if hasattr(model, "loss_curve_"):
+                        rec["loss_curve"] = [float(x) for x in np.asarray(model.loss_curve_)]
+                for it in items:
+                    if model is None:
+                        it.metrics[ms.label] = {"status": "failed", "error": rec["error"]}
+                        continue
+                    try:
+                        t0 = time.perf_counter()
+                        out = model.compensate(it.piece.gyro())
+                        dt = time.perf_counter() - t0
+                    except Exception as exc:
+                        it.metrics[ms.label] = {"status": "failed",
+                                                "error": f"{type(exc).__name__}: {exc}"}
+                        continue
+                    it.outputs[ms.label] = out
+                    m = score(out, it.piece, it.metrics["raw"])
+                    m["fit_time_s"] = rec["fit_time_s"]
+                    m["compensate_time_s"] = dt
+                    m["compensate_samples_per_s"] = out.size / dt if dt > 0 else None
+                    truth_coef = _true_coefficients(data[it.run], axis_j)
+                    if rec.get("coefficients") and truth_coef:
+                        m.update(_coef_errors(rec["coefficients"], truth_coef))
+                    it.metrics[ms.label] = m
+                fits[prot.name][ms.label].append(rec)
+            scored.extend(items)
+
+    metrics = _metrics_doc(sc, plan, data, scored, fits, time.monotonic() - t_start)
+    return ScenarioResult(sc, plan, data, scored, fits, metrics, time.monotonic() - t_start)
+
+
+def _method_seed(sc, prot, ms, fit_sel) -> int:
+    """A method's seed, derived from the scenario, protocol, method and fit runs (stable)."""
+    import zlib
+
+    key = f"{sc.name}|{prot.name}|{ms.label}|{'|'.join(s.run for s in fit_sel)}"
+    return zlib.crc32(key.encode())
+
+
+TERM_NAMES = ("d0", "d1", "d2", "d3", "d4", "d5", "d6", "d7", "d8", "d9")
+
+
+def _true_coefficients(rd: RunData, j: int) -> dict | None:
+    """The true g-model coefficients d0..d9 of this power-on (deg/h, deg/h/g, deg/h/g^2)."""
+    if not any(k in rd.fog.terms for k in ("g_sensitivity", "g2_sensitivity")):
+        return None
+    bias = 0.0
+    for k in ("constant_bias", "switch_on_bias"):
+        if k in rd.fog.terms:
+            bias += float(rd.fog.terms[k][0, j])
+    d = [bias] + list(rd.fog.draws["g_sens"][j]) + list(rd.fog.draws["g2_sens"][j])
+    return {n: v / DPH for n, v in zip(TERM_NAMES, d)}
+
+
+def _coef_errors(est: dict, true: dict) -> dict:
+    vals = {}
+    for name in TERM_NAMES:
+        key = next((k for k in est if k == name or k.startswith(name + "_")), None)
+        if key is not None:
+            vals[name] = est[key]
+    if len(vals) < len(TERM_NAMES):
+        return {}
+    err = np.array([vals[n] - true[n] for n in TERM_NAMES])
+    return {"coef_rms_error_dph": float(np.sqrt(np.mean(err**2))),
+            "coef_errors_dph": {n: float(e) for n, e in zip(TERM_NAMES, err)},
+            "coef_true_dph": dict(true)}
+
+
+def _metrics_doc(sc, plan, data, scored, fits, wall) -> dict:
+    prots = {}
+    for prot in plan.protocols:
+        runs = {}
+        for it in scored:
+            if it.protocol == prot.name:
+                runs[it.run] = it.metrics
+        prots[prot.name] = {
+            "in_sample": prot.in_sample, "description": prot.description,
+            "per_run": prot.per_run, "smooth_s": prot.smooth_s, "skip_s": prot.skip_s,
+            "runs": runs,
+            "fits": {k: [{kk: vv for kk, vv in r.items() if kk not in ("traceback",)}
+                         for r in v] for k, v in fits[prot.name].items()},
+        }
+    return {
+        "scenario": sc.name, "scenario_file": sc.path, "description": sc.description,
+        "sample_rate_hz": sc.fs, "axis": plan.axis, "fog_preset": sc.fog_preset,
+        "fog_source": sc.fog_source,
+        "runs": {name: {"seed": rd.run.seed, "samples": rd.n, "duration_s": rd.n / rd.fs,
+                        "physics_steps": rd.truth.physics_steps,
+                        "settled_hold_fast_path_s": rd.truth.settled_fast_path_s}
+                 for name, rd in data.items()},
+        "protocols": prots,
+        "wall_time_s": wall,
+        "versions": versions(),
+        "units": "metric names end in their unit: _dps deg/s, _dph deg/h, _deg deg, _pct "
+                 "percent (improvement over the raw output), _s seconds",
+    }
+
+
+def write_metrics(path: Path, doc: dict) -> None:
+    def clean(v):
+        if isinstance(v, float) and not math.isfinite(v):
+            return None
+        if isinstance(v, dict):
+            return {k: clean(x) for k, x in v.items()}
+        if isinstance(v, (list, tuple)):
+            return [clean(x) for x in v]
+        if isinstance(v, np.generic):
+            return clean(v.item())
+        return v
+
+    atomic_write_text(path, json.dumps(clean(doc), indent=2))

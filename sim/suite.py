@@ -1,0 +1,231 @@
+"""``fogbench suite``: every scenario, in parallel processes, and the summary reports/README.md."""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+import traceback
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
+
+from .io import atomic_write_text
+from .protocol import load_plan
+from .report import fmt
+from .scenario import RUNNER_SECTIONS, ScenarioError, load_scenario
+
+__all__ = ["run_suite", "check_bounds", "summary_markdown"]
+
+SUMMARY_METRICS = ("std_dps", "rmse_dph", "bias_stability_100s_dph", "angle_error_final_deg",
+                   "coef_rms_error_dph", "improvement_rmse_pct", "fit_time_s")
+
+
+def _one(path: str, out: str, recording: bool, quiet: bool) -> dict:
+    """Worker: run one scenario and write its directory. Returns a small status record."""
+    from .report import write_run_dir
+    from .runner import run_scenario
+
+    name = Path(path).stem
+    say = (lambda msg: None) if quiet else (
+        lambda msg: print(f"[{name}] {msg}", file=sys.stderr, flush=True))
+    t0 = time.monotonic()
+    try:
+        res = run_scenario(path, progress=say)
+        write_run_dir(res, Path(out) / res.scenario.name, recording=recording)
+        return {"path": path, "name": res.scenario.name, "ok": True, "metrics": res.metrics,
+                "wall_s": time.monotonic() - t0}
+    except Exception as exc:  # a broken scenario is reported; the suite goes on
+        return {"path": path, "name": name, "ok": False, "wall_s": time.monotonic() - t0,
+                "error": f"{type(exc).__name__}: {exc}", "traceback": traceback.format_exc()}
+
+
+def _values(doc: dict, protocol: str, method: str, metric: str, run: str | None):
+    prot = doc["protocols"].get(protocol, {})
+    for rname, by_method in prot.get("runs", {}).items():
+        if run is not None and rname != run:
+            continue
+        m = by_method.get(method)
+        if m is None:
+            yield rname, None, "method not scored"
+        elif m.get("status") == "failed":
+            yield rname, None, f"method failed: {m.get('error')}"
+        elif metric not in m or m[metric] is None:
+            yield rname, None, "metric not computed"
+        else:
+            yield rname, m[metric], None
+
+
+def check_bounds(name: str, plan, doc: dict) -> list[str]:
+    """Messages for every metric outside its declared bounds (empty when all hold)."""
+    bad = []
+    for b in plan.bounds:
+        for run, v, why in _values(doc, b.protocol, b.method, b.metric, b.run):
+            where = f"{name}: protocol {b.protocol}, run {run}, method {b.method}, {b.metric}"
+            if why:
+                bad.append(f"{where}: {why}")
+            elif (b.lo is not None and v < b.lo) or (b.hi is not None and v > b.hi) or \
+                    not math.isfinite(v):
+                bad.append(f"{where} = {fmt(v, b.metric)} outside [{fmt(b.lo)}, {fmt(b.hi)}]")
+    return bad
+
+
+def _mean_over_runs(prot: dict, label: str, metric: str):
+    vals = []
+    for by_method in prot["runs"].values():
+        m = by_method.get(label, {})
+        if m.get("status") == "failed":
+            return "failed"
+        v = m.get(metric)
+        if isinstance(v, (int, float)) and math.isfinite(v):
+            vals.append(v)
+    return sum(vals) / len(vals) if vals else None
+
+
+def _claims(plan, doc) -> list[str]:
+    """Statements comparing the paper's figures with ours, with the numbers."""
+    out = []
+    groups: dict = {}
+    for pv in plan.paper:
+        groups.setdefault((pv.metric, pv.run, pv.segment), []).append(pv)
+    for prot in plan.protocols:
+        pd = doc["protocols"][prot.name]
+        tag = "in-sample (paper's protocol)" if prot.in_sample else "held out"
+        for (metric, run, segment), pvs in groups.items():
+            if segment is not None:
+                continue
+            runs = [run] if run else list(pd["runs"])
+            for r in runs:
+                if r not in pd["runs"]:
+                    continue
+                ours, theirs = {}, {}
+                for pv in pvs:
+                    m = pd["runs"][r].get(pv.method, {})
+                    v = m.get(metric)
+                    if isinstance(v, (int, float)):
+                        ours[pv.method] = v
+                        theirs[pv.method] = pv.value
+                if len(ours) < 1:
+                    continue
+                pairs = ", ".join(f"{k} {fmt(theirs[k], metric)} vs {fmt(ours[k], metric)}"
+                                  for k in theirs)
+                line = f"`{prot.name}` ({tag}), {r}, {metric} (paper vs ours): {pairs}."
+                if len(ours) >= 2:
+                    p_order = sorted(theirs, key=theirs.get)
+                    o_order = sorted(ours, key=ours.get)
+                    verdict = "same ranking" if p_order == o_order else "ranking differs"
+                    line += (f" Paper ranks {' < '.join(p_order)}; ours {' < '.join(o_order)}: "
+                             f"**{verdict}**.")
+                out.append(line)
+    return out
+
+
+def summary_markdown(results: list[dict], plans: dict, out: Path, violations: list[str]) -> str:
+    L = ["# fogbench suite: summary", "",
+         "Each scenario's methods were fitted on some runs and scored on others against the "
+         "simulation's truth (see each report for the protocol). Rows `raw` (the FOG output) and "
+         "`oracle` (raw minus the true deterministic error terms) bracket what compensation can "
+         "do. Values are means over the scored runs of a protocol; metric units are in the names "
+         "(`_dps` deg/s, `_dph` deg/h, `_deg` deg, `_pct` percent improvement over raw, `_s` "
+         "seconds). In-sample protocols (a paper's own, scored on fitted data) are flagged.", ""]
+    for r in sorted(results, key=lambda r: r["name"]):
+        name = r["name"]
+        if not r["ok"]:
+            L += [f"## {name}: FAILED", "", "```", r["error"], "```", ""]
+            continue
+        doc, plan = r["metrics"], plans[name]
+        L += [f"## [{name}]({name}/report.md)", "", doc["description"], "",
+              f"Wall time {r['wall_s']:.1f} s.", ""]
+        for pname, pd in doc["protocols"].items():
+            labels = []
+            for by_method in pd["runs"].values():
+                for lab in by_method:
+                    if lab not in labels:
+                        labels.append(lab)
+            metrics = [m for m in SUMMARY_METRICS if any(
+                isinstance(_mean_over_runs(pd, lab, m), float) for lab in labels)]
+            flag = " (IN-SAMPLE, the paper's protocol)" if pd["in_sample"] else " (held out)"
+            L += [f"**Protocol `{pname}`{flag}**, scored on {', '.join(pd['runs'])}:", ""]
+            L += ["| method | " + " | ".join(metrics) + " |", "|---|" + "---|" * len(metrics)]
+            for lab in labels:
+                cells = [fmt(_mean_over_runs(pd, lab, m), m) for m in metrics]
+                L.append(f"| {lab} | " + " | ".join(cells) + " |")
+            L.append("")
+        claims = _claims(plan, doc)
+        if claims:
+            L += ["Against the paper:", ""] + [f"- {c}" for c in claims] + [""]
+        for note in plan.notes:
+            L += [f"> {note}", ""]
+    L += ["## Bounds check", ""]
+    L += (["Every declared bound holds."] if not violations else
+          ["Outside bounds:", ""] + [f"- {v}" for v in violations])
+    L.append("")
+    return "\n".join(L)
+
+
+def run_suite(scenario_dir: Path, out: Path, check: bool = False, jobs: int = 2,
+              only_ci: bool = False, recording: bool = True, quiet: bool = False,
+              names: list[str] | None = None) -> int:
+    paths = sorted(Path(scenario_dir).glob("*.toml"))
+    if not paths:
+        print(f"fogbench: error: no scenario files (*.toml) in {scenario_dir}", file=sys.stderr)
+        return 2
+    plans, chosen, results = {}, [], []
+    for p in paths:
+        try:
+            sc = load_scenario(p, extra_sections=RUNNER_SECTIONS)
+            plan = load_plan(sc)
+        except ScenarioError as exc:
+            results.append({"path": str(p), "name": p.stem, "ok": False, "wall_s": 0.0,
+                            "error": str(exc)})
+            print(f"fogbench: error: {exc}", file=sys.stderr)
+            continue
+        if only_ci and not plan.ci:
+            continue
+        if names and sc.name not in names:
+            continue
+        plans[sc.name] = plan
+        chosen.append(str(p))
+    if names:
+        missing = sorted(set(names) - set(plans))
+        if missing:
+            print(f"fogbench: error: no scenario named {missing} in {scenario_dir}",
+                  file=sys.stderr)
+            return 2
+    t0 = time.monotonic()
+    if not quiet:
+        print(f"fogbench suite: {len(chosen)} scenario(s), {jobs} process(es)", file=sys.stderr)
+    if jobs <= 1 or len(chosen) <= 1:
+        for p in chosen:
+            results.append(_one(p, str(out), recording, quiet))
+            _report_done(results[-1], quiet)
+    else:
+        with ProcessPoolExecutor(max_workers=jobs) as pool:
+            futs = [pool.submit(_one, p, str(out), recording, quiet) for p in chosen]
+            for f in as_completed(futs):
+                results.append(f.result())
+                _report_done(results[-1], quiet)
+    violations = []
+    for r in results:
+        if r["ok"]:
+            violations += check_bounds(r["name"], plans[r["name"]], r["metrics"])
+        else:
+            violations.append(f"{r['name']}: scenario failed: {r['error']}")
+    summary = summary_markdown(results, plans, out, violations)
+    readme = Path(out) / "README.md"
+    if only_ci or names:
+        readme = Path(out) / "README.partial.md"  # a subset never overwrites the full summary
+    atomic_write_text(readme, summary)
+    print(f"fogbench suite: {sum(r['ok'] for r in results)}/{len(results)} scenario(s) ran in "
+          f"{time.monotonic() - t0:.1f} s; summary in {readme}")
+    for v in violations:
+        print(f"fogbench: bound: {v}", file=sys.stderr)
+    if check and violations:
+        return 1
+    return 0 if all(r["ok"] for r in results) else 1
+
+
+def _report_done(r: dict, quiet: bool):
+    if r["ok"]:
+        print(f"  done {r['name']} ({r['wall_s']:.1f} s)", file=sys.stderr, flush=True)
+    else:
+        print(f"  FAILED {r['name']}: {r['error']}", file=sys.stderr, flush=True)

@@ -113,7 +113,7 @@ class Commands:
 
 def _smooth_move(t, start, end, duration):
     """Raised-cosine move from start to end over duration (t from 0); holds end after."""
-    if duration <= 0 or start == end:
+    if duration <= 1e-9 or start == end:
         return np.full_like(t, end)
     s = np.clip(t / duration, 0.0, 1.0)
     return start + (end - start) * 0.5 * (1.0 - np.cos(np.pi * s))

@@ -29,7 +29,8 @@ METRIC_NAMES = {
     "std_dps", "std_dph", "rmse_dph", "rmse_dps", "bias_stability_100s_dph", "angle_error_final_deg",
     "angle_error_max_deg", "arw_deg_rt_h", "bias_instability_dph", "rrw_dph_rt_h",
     "fit_time_s", "compensate_time_s", "improvement_std_pct", "improvement_rmse_pct",
-    "improvement_bias_stability_pct", "coef_rms_error_dph",
+    "improvement_bias_stability_pct", "coef_rms_error_dph", "drift_rms_dph",
+    "improvement_drift_pct", "mean_error_dph",
 }
 
 
@@ -143,6 +144,11 @@ def select_indices(sel: Selection, run: Run, fs: float, skip_s: float,
     if sel.stride > 1:
         idx = idx[sel.offset::sel.stride]
     return idx
+
+
+def stride_blocks(prot_smooth_s, fs):
+    """Samples per stride step: with smoothing a stride picks smoothed blocks, not samples."""
+    return 1 if not prot_smooth_s else int(round(prot_smooth_s * fs))
 
 
 def _selection(v, where: str, file: str, run_names: set[str], runs: dict[str, Run],
@@ -299,21 +305,34 @@ def expand(prot: Protocol, sc: Scenario) -> list[tuple[list[Selection], list[Sel
     return out
 
 
+def _selected_samples(s: Selection, prot: Protocol, run: Run, fs: float) -> np.ndarray:
+    """Raw sample indices a selection touches (a stride over smoothed blocks keeps whole
+    blocks). static_only can only shrink a selection, so it is left out (conservative)."""
+    k = stride_blocks(prot.smooth_s, fs)
+    if k == 1:
+        return select_indices(Selection(s.run, s.segments, s.start_s, s.end_s, s.stride,
+                                        s.offset), run, fs, prot.skip_s)
+    idx = select_indices(Selection(s.run, s.segments, s.start_s, s.end_s), run, fs, prot.skip_s)
+    if s.stride == 1:
+        return idx
+    parts = [p for p in np.split(idx, np.flatnonzero(np.diff(idx) != 1) + 1) if p.size >= k]
+    blocks = [p[i * k:(i + 1) * k] for p in parts for i in range(p.size // k)]
+    keep = blocks[s.offset::s.stride]
+    return np.concatenate(keep) if keep else idx[:0]
+
+
 def _check_overlap(prot: Protocol, sc: Scenario, file: str):
     runs = {r.name: r for r in sc.runs}
     for fit, score in expand(prot, sc):
         fit_idx: dict[str, set] = {}
         for s in fit:
-            # static_only can only shrink a selection: check without it (conservative)
-            idx = select_indices(Selection(s.run, s.segments, s.start_s, s.end_s, s.stride,
-                                           s.offset), runs[s.run], sc.fs, prot.skip_s)
+            idx = _selected_samples(s, prot, runs[s.run], sc.fs)
             if idx.size == 0:
                 raise ScenarioError(f"{file}: [[protocols]] '{prot.name}' fit selection "
                                     f"({s.describe()}) selects no samples")
             fit_idx.setdefault(s.run, set()).update(idx.tolist())
         for s in score:
-            idx = select_indices(Selection(s.run, s.segments, s.start_s, s.end_s, s.stride,
-                                           s.offset), runs[s.run], sc.fs, prot.skip_s)
+            idx = _selected_samples(s, prot, runs[s.run], sc.fs)
             if idx.size == 0:
                 raise ScenarioError(f"{file}: [[protocols]] '{prot.name}' score selection "
                                     f"({s.describe()}) selects no samples")
@@ -324,9 +343,6 @@ def _check_overlap(prot: Protocol, sc: Scenario, file: str):
                     f"{len(shared)} samples it was fitted on; scoring on fitted data is refused "
                     "(set in_sample = true only to reproduce a paper's own protocol, beside a "
                     "held-out one)")
-        if prot.in_sample and not any(
-                fit_idx.get(s.run, set()) for s in score):
-            pass  # an in-sample flag on a protocol that is in fact held out is harmless
 
 
 def positions_of(run: Run) -> list[int]:

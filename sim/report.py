@@ -29,8 +29,8 @@ from .runner import ScenarioResult, TERM_NAMES, thermal_segments, write_metrics 
 __all__ = ["write_run_dir", "KEY_METRICS", "fmt"]
 
 MAX_PLOT_POINTS = 4000
-KEY_METRICS = ("std_dps", "rmse_dph", "bias_stability_100s_dph", "angle_error_final_deg",
-               "improvement_rmse_pct", "fit_time_s")
+KEY_METRICS = ("std_dps", "rmse_dph", "drift_rms_dph", "bias_stability_100s_dph",
+               "angle_error_final_deg", "coef_rms_error_dph", "improvement_rmse_pct", "fit_time_s")
 COLORS = {"raw": "0.6", "oracle": "0.2", "truth": "tab:green"}
 METHOD_COLORS = ["tab:blue", "tab:orange", "tab:red", "tab:purple", "tab:brown", "tab:pink",
                  "tab:cyan", "tab:olive"]
@@ -296,7 +296,10 @@ def _segment_table(res: ScenarioResult, protocol: str, run: str) -> str:
         cells = [name]
         for lab in labels:
             y = item.outputs[lab][mask]
-            v = M.std(y) / DPH if p.fs <= 0.0100001 else M.bias_stability(y, p.fs, 100.0) / DPH
+            try:
+                v = (M.std(y) if p.fs <= 0.0100001 else M.bias_stability(y, p.fs, 100.0)) / DPH
+            except ValueError:  # a segment shorter than two 100 s windows
+                v = None
             pv = _paper_value(res.plan, lab, "bias_stability_100s_dph", run, name)
             cells.append(fmt(v) + (f" ({fmt(pv.value)})" if pv else ""))
         rows.append(cells)

@@ -82,9 +82,10 @@ def _smooth(x: np.ndarray, k: int) -> np.ndarray:
 
 
 def make_piece(rd: RunData, sel: Selection, prot: Protocol, axis_j: int) -> Piece:
-    idx = select_indices(sel, rd.run, rd.fs, prot.skip_s, rd.truth.table_rate)
-    if idx.size == 0:
-        raise ValueError(f"selection {sel.describe()} of protocol {prot.name!r} has no samples")
+    """The samples of one run that ``sel`` picks: selection, then smoothing (when the protocol
+    smooths, in blocks that never straddle a gap), then the stride (over the smoothed samples)."""
+    plain = Selection(sel.run, sel.segments, sel.start_s, sel.end_s, 1, 0, sel.static_only)
+    idx = select_indices(plain, rd.run, rd.fs, prot.skip_s, rd.truth.table_rate)
     truth = rd.truth_axis(axis_j)
     det = sum((rd.fog.terms[k][:, axis_j] for k in DETERMINISTIC if k in rd.fog.terms),
               np.zeros(rd.n))
@@ -94,14 +95,16 @@ def make_piece(rd: RunData, sel: Selection, prot: Protocol, axis_j: int) -> Piec
     fs = rd.fs
     if prot.smooth_s:
         k = int(round(prot.smooth_s * fs))
-        # smooth contiguous runs of the selection only (blocks never straddle a gap)
-        breaks = np.flatnonzero(np.diff(idx) != 1) + 1
-        parts = np.split(idx, breaks)
-        out = {c: np.concatenate([_smooth(v[p], k) for p in parts if p.size >= k])
-               for c, v in cols.items()}
-        cols, fs = out, fs / k
+        parts = [p for p in np.split(idx, np.flatnonzero(np.diff(idx) != 1) + 1) if p.size >= k]
+        cols = {c: (np.concatenate([_smooth(v[p], k) for p in parts]) if parts else v[:0])
+                for c, v in cols.items()}
+        fs = fs / k
     else:
         cols = {c: v[idx] for c, v in cols.items()}
+    if sel.stride > 1:
+        cols = {c: v[sel.offset::sel.stride] for c, v in cols.items()}
+    if cols["raw"].size == 0:
+        raise ValueError(f"selection {sel.describe()} of protocol {prot.name!r} has no samples")
     return Piece(run=rd.run.name, fs=fs, **cols)
 
 
@@ -142,12 +145,19 @@ def score(out: np.ndarray, piece: Piece, raw_ref: dict | None = None) -> dict:
     ang = M.integrated_angle_error(out, piece.truth, piece.fs)
     m["angle_error_final_deg"] = math.degrees(ang["angle_error_final_rad"])
     m["angle_error_max_deg"] = math.degrees(ang["angle_error_max_rad"])
+    # pieces made of separate static dwells (multi-position tests): the drift left at each
+    # position is the mean error over its dwell, which averages the noise out
+    gaps = np.flatnonzero(np.diff(piece.t) > 1.5 / piece.fs) + 1
+    if gaps.size:
+        means = [np.mean(b) for b in np.split(err, gaps) if b.size]
+        m["drift_rms_dph"] = float(np.sqrt(np.mean(np.square(means)))) / DPH
     dur = out.size / piece.fs
     if dur >= 300.0:
         m["bias_stability_100s_dph"] = M.bias_stability(out, piece.fs, 100.0) / DPH
     if raw_ref is not None:
         for key, name in (("std_dps", "improvement_std_pct"), ("rmse_dph", "improvement_rmse_pct"),
-                          ("bias_stability_100s_dph", "improvement_bias_stability_pct")):
+                          ("bias_stability_100s_dph", "improvement_bias_stability_pct"),
+                          ("drift_rms_dph", "improvement_drift_pct")):
             if key in m and raw_ref.get(key):
                 m[name] = 100.0 * (1.0 - m[key] / raw_ref[key])
     return m
@@ -262,7 +272,9 @@ def run_scenario(path, progress=None, methods: list[str] | None = None) -> Scena
                     m["compensate_samples_per_s"] = out.size / dt if dt > 0 else None
                     truth_coef = _true_coefficients(data[it.run], axis_j)
                     if rec.get("coefficients") and truth_coef:
-                        m.update(_coef_errors(rec["coefficients"], truth_coef))
+                        se = (rec.get("identifiability") or {}).get("stderr_dph", {})
+                        ident = [n for n in TERM_NAMES if se.get(n, 0.0) is not None]
+                        m.update(_coef_errors(rec["coefficients"], truth_coef, ident))
                     it.metrics[ms.label] = m
                 fits[prot.name][ms.label].append(rec)
             scored.extend(items)
@@ -294,7 +306,9 @@ def _true_coefficients(rd: RunData, j: int) -> dict | None:
     return {n: v / DPH for n, v in zip(TERM_NAMES, d)}
 
 
-def _coef_errors(est: dict, true: dict) -> dict:
+def _coef_errors(est: dict, true: dict, identified: list[str]) -> dict:
+    """Errors of d0..d9 against the truth; the RMS is over the identified coefficients only
+    (an unidentified one is an arbitrary point of its null direction, not an estimate)."""
     vals = {}
     for name in TERM_NAMES:
         key = next((k for k in est if k == name or k.startswith(name + "_")), None)
@@ -303,7 +317,9 @@ def _coef_errors(est: dict, true: dict) -> dict:
     if len(vals) < len(TERM_NAMES):
         return {}
     err = np.array([vals[n] - true[n] for n in TERM_NAMES])
-    return {"coef_rms_error_dph": float(np.sqrt(np.mean(err**2))),
+    ide = np.array([n in identified for n in TERM_NAMES])
+    return {"coef_rms_error_dph": float(np.sqrt(np.mean(err[ide] ** 2))) if ide.any() else None,
+            "coef_identified": [n for n in TERM_NAMES if n in identified],
             "coef_errors_dph": {n: float(e) for n, e in zip(TERM_NAMES, err)},
             "coef_true_dph": dict(true)}
 

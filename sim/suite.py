@@ -16,8 +16,9 @@ from .scenario import RUNNER_SECTIONS, ScenarioError, load_scenario
 
 __all__ = ["run_suite", "check_bounds", "summary_markdown"]
 
-SUMMARY_METRICS = ("std_dps", "rmse_dph", "bias_stability_100s_dph", "angle_error_final_deg",
-                   "coef_rms_error_dph", "improvement_rmse_pct", "fit_time_s")
+SUMMARY_METRICS = ("std_dps", "rmse_dph", "drift_rms_dph", "bias_stability_100s_dph",
+                   "angle_error_final_deg", "coef_rms_error_dph", "improvement_rmse_pct",
+                   "fit_time_s")
 
 
 def _one(path: str, out: str, recording: bool, quiet: bool) -> dict:

@@ -1,0 +1,603 @@
+"""Temperature compensation of the FOG bias: polynomial, BP network and ACO-BP network.
+
+The Shupe effect makes the bias of a fiber coil depend on its temperature T and on the rate of
+change dT/dt (paper eq. 1). Three estimators of ``bias = f(T, dT/dt)``, all supervised (they
+learn ``error = rate - reference_rate`` in rad/s from a thermal-chamber record):
+
+``poly_temp``
+    ``y = k1 + k2 T + k3 dT/dt`` by least squares (paper eq. 7).
+``bp``
+    A 2-9-1 back-propagation network (eqs. 2-4) trained by full-batch gradient descent from
+    random initial weights.
+``aco_bp``
+    The same network, its 37 initial weights and thresholds chosen by an ant colony
+    optimisation (section 2.2), then trained as ``bp``.
+
+References
+----------
+.. [1] Qiu Haitao, Xu Mengtong, Liu Wei, Ma Haibin, "Research on temperature compensation method
+   of fiber optic gyroscope based on ACO-BP neural network", Electronics Optics & Control 30(7),
+   2023, 78-81, 118 (fogbench seed 002). Eq. 1 Shupe error; eqs. 2-4 BP network and its error;
+   eq. 5 bias stability; eq. 6 hidden size; eq. 7 polynomial model; section 2.2 ACO steps;
+   section 3.2 parameters (9 hidden nodes, learning rate 0.1, goal 1e-5, 1,000 epochs,
+   10 ants, evaporation coefficient 0.9).
+.. [2] T. Stuetzle, H. H. Hoos, "MAX-MIN Ant System", Future Generation Computer Systems 16(8),
+   2000, 889-914: pheromone bounds tau_min, tau_max (eq. 11 there) and iteration/global-best
+   deposit.
+.. [3] M. T. Hagan, H. B. Demuth, M. H. Beale, *Neural Network Design*, 1996, ch. 11-12 (the
+   MATLAB ``tansig``/``purelin`` network, ``mapminmax`` normalisation and ``traingd``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..base import Compensator, DivergenceError, GyroData, register
+from ..units import DPH
+from .flnn import DEFAULT_RCOND, _restore_ident, _state_with_ident, _warn, lstsq_identify
+
+__all__ = ["PolyTemp", "Bp", "AcoBp", "ConvergenceWarning", "TrainingRangeWarning"]
+
+#: A loss larger than this multiple of the starting loss counts as exploding.
+_EXPLODE = 1e6
+
+
+class ConvergenceWarning(UserWarning):
+    """Training stopped at its epoch limit before reaching the error goal."""
+
+
+class TrainingRangeWarning(UserWarning):
+    """Inputs far outside the range the network was trained on (extrapolation)."""
+
+
+def _is_num(v) -> bool:
+    return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool) \
+        and bool(np.isfinite(v))
+
+
+def _is_int(v) -> bool:
+    return isinstance(v, (int, np.integer)) and not isinstance(v, bool)
+
+
+# ---------------------------------------------------------------------------------------------
+@register
+class PolyTemp(Compensator):
+    """Bias as a linear function of temperature and temperature rate (paper eq. 7).
+
+    ``error = k1 + k2 T + k3 dT/dt``, fitted by least squares (SVD of the column-scaled design,
+    :func:`fogcomp.methods.flnn.lstsq_identify`). A record that does not vary T and dT/dt
+    independently (a constant temperature, a single constant ramp) leaves the design
+    rank-deficient: the fit then warns and returns the minimum-norm solution.
+
+    Parameters
+    ----------
+    rcond : float, default 1e-4
+        Relative singular-value threshold for the numerical rank.
+
+    Attributes
+    ----------
+    coef_ : ndarray, shape (3,)
+        k1 in rad/s, k2 in rad/s/degC, k3 in rad/s/(degC/s).
+    identifiability_ : fogcomp.methods.flnn.Identifiability
+        Rank, conditioning, standard errors.
+
+    References
+    ----------
+    .. [1] Qiu et al. 2023 (fogbench seed 002), eq. 7.
+    """
+
+    name = "poly_temp"
+    requires = ("temp", "temp_rate")
+    supervised = True
+    coef_names = ("k1", "k2", "k3")
+
+    def __init__(self, rcond: float = DEFAULT_RCOND):
+        self.rcond = rcond
+
+    @staticmethod
+    def _design(data: GyroData) -> np.ndarray:
+        return np.column_stack([np.ones(len(data)), data.temp, data.temp_rate])
+
+    def _fit(self, data, error):
+        if not (_is_num(self.rcond) and self.rcond > 0):
+            raise ValueError(f"rcond: must be a positive finite number, got {self.rcond!r}")
+        self.coef_, self.identifiability_ = lstsq_identify(
+            self._design(data), error, self.coef_names, rcond=float(self.rcond), label=self.name)
+
+    def _estimate(self, data):
+        return self._design(data) @ self.coef_
+
+    def coef_dph(self) -> dict:
+        """``{"k1_dph", "k2_dph_per_c", "k3_dph_per_c_per_s"}``: deg/h, deg/h/C, deg/h/(C/s)."""
+        self._check_fitted()
+        return {k: float(v / DPH) for k, v in
+                zip(("k1_dph", "k2_dph_per_c", "k3_dph_per_c_per_s"), self.coef_)}
+
+    def _state(self):
+        return _state_with_ident(self.identifiability_, {}, {"coef": self.coef_})
+
+    def _restore(self, info, arrays):
+        self.coef_ = np.asarray(arrays["coef"], dtype=float)
+        self.identifiability_ = _restore_ident(info, arrays)
+
+
+# ---------------------------------------------------------------------------------------------
+# The 2-H-1 network: parameters packed in one vector theta of length 4 H + 1,
+# [W1 (H x 2, row-major: hidden j, input i), b1 (H), W2 (H), b2 (1)].
+def n_params(hidden_size: int, n_inputs: int = 2) -> int:
+    """Weights plus thresholds of an ``n_inputs``-``hidden_size``-1 network (37 for 2-9-1)."""
+    return hidden_size * n_inputs + hidden_size + hidden_size + 1
+
+
+def _unpack(theta: np.ndarray, H: int, m: int = 2):
+    """Split ``theta``, shape (..., P), into W1 (..., H, m), b1 (..., H), W2 (..., H), b2 (...)."""
+    W1 = theta[..., :H * m].reshape(theta.shape[:-1] + (H, m))
+    b1 = theta[..., H * m:H * m + H]
+    W2 = theta[..., H * m + H:H * m + 2 * H]
+    b2 = theta[..., -1]
+    return W1, b1, W2, b2
+
+
+def net_forward(theta: np.ndarray, x: np.ndarray, hidden_size: int) -> np.ndarray:
+    """Output of one or several networks (paper eqs. 2-3, f1 = tanh, f2 = identity).
+
+    Parameters
+    ----------
+    theta : ndarray, shape (P,) or (A, P)
+        Packed parameters of one network, or of A networks (the ants of the colony).
+    x : ndarray, shape (n, 2)
+        Normalised inputs.
+    hidden_size : int
+        H.
+
+    Returns
+    -------
+    ndarray, shape (n,) or (A, n)
+        Normalised outputs.
+
+    References
+    ----------
+    Qiu et al. 2023 (fogbench seed 002), eqs. 2-3.
+    """
+    W1, b1, W2, b2 = _unpack(np.asarray(theta, dtype=float), hidden_size, x.shape[1])
+    if W1.ndim == 2:
+        h = np.tanh(x @ W1.T + b1)
+        return h @ W2 + b2
+    h = np.tanh(np.einsum("ni,ahi->anh", x, W1) + b1[:, None, :])
+    return np.einsum("anh,ah->an", h, W2) + b2[:, None]
+
+
+def net_loss_grad(theta: np.ndarray, x: np.ndarray, t: np.ndarray, hidden_size: int):
+    """MSE of one network and its gradient by back-propagation.
+
+    The loss is ``mean((y - t)^2)``: paper eq. 4 (half the summed squared error) averaged over the
+    samples and doubled, the ``mse`` performance that MATLAB's ``traingd`` descends, so that the
+    learning rate does not depend on the number of samples.
+
+    Parameters
+    ----------
+    theta : ndarray, shape (P,)
+        Packed parameters.
+    x : ndarray, shape (n, 2)
+        Normalised inputs.
+    t : ndarray, shape (n,)
+        Normalised targets.
+    hidden_size : int
+        H.
+
+    Returns
+    -------
+    loss : float
+        Normalised MSE.
+    grad : ndarray, shape (P,)
+        d loss / d theta.
+
+    References
+    ----------
+    Qiu et al. 2023 (fogbench seed 002), eq. 4 (error) and section 2.1 (negative-gradient
+    back-propagation); Hagan, Demuth & Beale 1996, ch. 11 (the back-propagation recursion).
+    """
+    H = hidden_size
+    W1, b1, W2, b2 = _unpack(theta, H, x.shape[1])
+    h = np.tanh(x @ W1.T + b1)                      # (n, H)
+    e = h @ W2 + b2 - t                             # (n,)
+    n = t.size
+    loss = float(e @ e / n)
+    dy = 2.0 * e / n
+    gW2 = h.T @ dy
+    gb2 = dy.sum()
+    dz = np.outer(dy, W2) * (1.0 - h * h)           # (n, H)
+    gW1 = dz.T @ x
+    gb1 = dz.sum(axis=0)
+    return loss, np.concatenate([gW1.ravel(), gb1, gW2, [gb2]])
+
+
+class _MinMax:
+    """MATLAB ``mapminmax``: map each column's training range linearly onto [-1, 1].
+
+    A constant column (zero range) is mapped to 0 (its half-range is taken as 1).
+    """
+
+    def __init__(self, center: np.ndarray, half: np.ndarray):
+        self.center = np.asarray(center, dtype=float)
+        self.half = np.asarray(half, dtype=float)
+
+    @classmethod
+    def fit(cls, v: np.ndarray) -> "_MinMax":
+        lo, hi = v.min(axis=0), v.max(axis=0)
+        half = (hi - lo) / 2.0
+        half = np.where(half > 0, half, 1.0)
+        return cls((hi + lo) / 2.0, half)
+
+    def forward(self, v):
+        return (v - self.center) / self.half
+
+    def inverse(self, v):
+        return v * self.half + self.center
+
+
+@register
+class Bp(Compensator):
+    """Bias = BP network(T, dT/dt): a 2-9-1 network trained by full-batch gradient descent.
+
+    Network (paper eqs. 2-3): inputs x = (T, dT/dt), hidden layer ``y_j = f1(sum_i v_ij x_i)``,
+    output ``W = f2(sum_j W_j y_j)``, each sum with a threshold (bias). The paper leaves f1, f2
+    generic; here f1 = tanh (MATLAB ``tansig``) and f2 = identity (``purelin``), the MATLAB
+    defaults such a study uses and the standard choice for regression: tanh is zero-centred like
+    the [-1, 1]-normalised inputs, and a linear output can reach any target value.
+
+    Normalisation: inputs and output are mapped from their training range onto [-1, 1]
+    (MATLAB ``mapminmax``); the statistics are stored and reused at estimate time.
+
+    Training: full-batch steepest descent on the MSE in normalised units (like MATLAB
+    ``traingd``), learning rate 0.1, stopping at the error goal 1e-5 (on that normalised MSE) or
+    after 1,000 epochs (paper section 3.2). Initial weights and thresholds uniform in
+    ``(-init_scale, init_scale)`` = (-1, 1) from the seeded generator (MATLAB ``rands``), the
+    same box the ACO of :class:`AcoBp` searches, so the two starts compare like for like.
+
+    Hidden size 9: paper eq. 6, ``N = sqrt(m + n) + a`` with m = 2 inputs, n = 1 output and
+    a = 1 ... 10 gives 3 ... 12; the paper found 9 best.
+
+    Parameters
+    ----------
+    hidden_size : int, default 9
+        Number of hidden nodes (paper eq. 6 and section 3.2).
+    learning_rate : float, default 0.1
+        Gradient-descent step (section 3.2).
+    goal : float, default 1e-5
+        Stop when the normalised MSE is at or below this (section 3.2).
+    max_epochs : int, default 1000
+        Epoch limit (section 3.2); reaching it before the goal warns (:class:`ConvergenceWarning`).
+    init_scale : float, default 1.0
+        Initial parameters uniform in (-init_scale, init_scale).
+    random_state : int, numpy Generator or None
+        Seed (required).
+
+    Attributes
+    ----------
+    params_ : ndarray, shape (4 * hidden_size + 1,)
+        Trained weights and thresholds, packed [W1 (H x 2), b1 (H), W2 (H), b2].
+    x_center_, x_half_ : ndarray, shape (2,)
+        Input normalisation: ``(x - center) / half``; T in degC, dT/dt in degC/s.
+    y_center_, y_half_ : float
+        Output normalisation, rad/s.
+    initial_loss_ : float
+        Normalised MSE at the start of gradient descent.
+    loss_curve_ : ndarray, shape (n_epochs_ + 1,)
+        Normalised MSE at the start and after each epoch.
+    n_epochs_ : int
+        Number of gradient steps taken.
+
+    References
+    ----------
+    .. [1] Qiu et al. 2023 (fogbench seed 002): eq. 1 (why T and dT/dt), eqs. 2-4 (network and
+       error), eq. 6 (hidden size), section 3.2 (training parameters).
+    .. [2] Hagan, Demuth & Beale 1996 (tansig/purelin, mapminmax, traingd).
+    """
+
+    name = "bp"
+    requires = ("temp", "temp_rate")
+    supervised = True
+    random = True
+
+    def __init__(self, hidden_size: int = 9, learning_rate: float = 0.1, goal: float = 1e-5,
+                 max_epochs: int = 1000, init_scale: float = 1.0, random_state=None):
+        self.hidden_size = hidden_size
+        self.learning_rate = learning_rate
+        self.goal = goal
+        self.max_epochs = max_epochs
+        self.init_scale = init_scale
+        self.random_state = random_state
+
+    # -- helpers ---------------------------------------------------------------------------------
+    def _validate(self) -> None:
+        if not (_is_int(self.hidden_size) and self.hidden_size >= 1):
+            raise ValueError(f"hidden_size: must be an integer >= 1, got {self.hidden_size!r}")
+        if not (_is_num(self.learning_rate) and self.learning_rate > 0):
+            raise ValueError(f"learning_rate: must be a positive finite number, got "
+                             f"{self.learning_rate!r}")
+        if not (_is_num(self.goal) and self.goal >= 0):
+            raise ValueError(f"goal: must be a finite number >= 0, got {self.goal!r}")
+        if not (_is_int(self.max_epochs) and self.max_epochs >= 0):
+            raise ValueError(f"max_epochs: must be an integer >= 0, got {self.max_epochs!r}")
+        if not (_is_num(self.init_scale) and self.init_scale > 0):
+            raise ValueError(f"init_scale: must be a positive finite number, got "
+                             f"{self.init_scale!r}")
+
+    @staticmethod
+    def _inputs(data: GyroData) -> np.ndarray:
+        return np.column_stack([data.temp, data.temp_rate])
+
+    def _prepare(self, data: GyroData, error: np.ndarray):
+        x = self._inputs(data)
+        xs = _MinMax.fit(x)
+        const = [nm for nm, lo, hi in zip(("temp", "temp_rate"), x.min(0), x.max(0)) if lo == hi]
+        if const:
+            _warn(f"{self.name}: input(s) {', '.join(const)} constant over the fitting "
+                  "data; the network cannot learn their effect", UserWarning)
+        ys = _MinMax.fit(error[:, None])
+        self.x_center_, self.x_half_ = xs.center, xs.half
+        self.y_center_, self.y_half_ = float(ys.center[0]), float(ys.half[0])
+        return xs.forward(x), ys.forward(error[:, None])[:, 0]
+
+    def _initial_params(self, x, t, rng):
+        return rng.uniform(-self.init_scale, self.init_scale, n_params(self.hidden_size))
+
+    def _train(self, theta: np.ndarray, x: np.ndarray, t: np.ndarray) -> None:
+        """Full-batch gradient descent (MATLAB traingd) from ``theta``; sets learned attributes."""
+        H = self.hidden_size
+        lr = float(self.learning_rate)
+        losses = []
+        for epoch in range(self.max_epochs + 1):
+            loss, grad = net_loss_grad(theta, x, t, H)
+            if not np.isfinite(loss) or (losses and loss > _EXPLODE * losses[0]):
+                raise DivergenceError(
+                    f"{self.name}: gradient descent diverged at epoch {epoch} (MSE {loss:.3g}, "
+                    f"initial {losses[0] if losses else float('nan'):.3g}); lower learning_rate "
+                    f"(now {self.learning_rate!r})")
+            losses.append(loss)
+            if loss <= self.goal or epoch == self.max_epochs:
+                break
+            with np.errstate(over="ignore", invalid="ignore"):
+                theta = theta - lr * grad
+        self.params_ = theta
+        self.loss_curve_ = np.asarray(losses)
+        self.initial_loss_ = float(losses[0])
+        self.n_epochs_ = len(losses) - 1
+        if losses[-1] > self.goal:
+            _warn(f"{self.name}: error goal {self.goal:g} not reached in {self.max_epochs} "
+                  f"epochs (normalised MSE {losses[-1]:.3g})", ConvergenceWarning)
+
+    # -- Compensator -----------------------------------------------------------------------------
+    def _fit(self, data, error):
+        self._validate()
+        rng = self._rng()
+        x, t = self._prepare(data, error)
+        theta0 = self._initial_params(x, t, rng)
+        self._train(theta0, x, t)
+
+    def _estimate(self, data):
+        x = (self._inputs(data) - self.x_center_) / self.x_half_
+        if np.any(np.abs(x) > 1.5):
+            _warn(f"{self.name}: inputs reach {np.abs(x).max():.3g} half-ranges from the "
+                  "centre of the training range (trained on [-1, 1]); extrapolating",
+                  TrainingRangeWarning)
+        return net_forward(self.params_, x, self.hidden_size) * self.y_half_ + self.y_center_
+
+    def _state(self):
+        info = {"initial_loss_": self.initial_loss_, "n_epochs_": self.n_epochs_,
+                "y_center_": self.y_center_, "y_half_": self.y_half_}
+        arrays = {"params": self.params_, "loss_curve": self.loss_curve_,
+                  "x_center": self.x_center_, "x_half": self.x_half_}
+        return info, arrays
+
+    def _restore(self, info, arrays):
+        self.params_ = np.asarray(arrays["params"], dtype=float)
+        self.loss_curve_ = np.asarray(arrays["loss_curve"], dtype=float)
+        self.x_center_ = np.asarray(arrays["x_center"], dtype=float)
+        self.x_half_ = np.asarray(arrays["x_half"], dtype=float)
+        self.initial_loss_ = float(info["initial_loss_"])
+        self.n_epochs_ = int(info["n_epochs_"])
+        self.y_center_ = float(info["y_center_"])
+        self.y_half_ = float(info["y_half_"])
+
+
+# ---------------------------------------------------------------------------------------------
+# Ant colony optimisation over a discretised parameter box
+def aco_sample(tau: np.ndarray, alpha: float, n_ants: int, rng: np.random.Generator) -> np.ndarray:
+    """Each ant picks, for every parameter, one candidate value with probability
+    ``tau[j, k]^alpha / sum_k tau[j, k]^alpha`` (the state-transition probability).
+
+    Parameters
+    ----------
+    tau : ndarray, shape (P, K)
+        Pheromone on candidate k of parameter j (> 0).
+    alpha : float
+        Pheromone exponent.
+    n_ants : int
+        Number of ants A.
+    rng : numpy Generator
+
+    Returns
+    -------
+    ndarray of int, shape (A, P)
+        The candidate index each ant chose for each parameter.
+
+    References
+    ----------
+    Qiu et al. 2023 (fogbench seed 002), section 2.2 step 5 (state-transition probability);
+    Stuetzle & Hoos 2000, eq. 1 there (with no heuristic term).
+    """
+    prob = tau ** alpha
+    cum = np.cumsum(prob, axis=1)
+    cum /= cum[:, -1:]
+    u = rng.random((n_ants, tau.shape[0]))
+    return np.minimum((u[:, :, None] >= cum[None, :, :]).sum(axis=-1), tau.shape[1] - 1)
+
+
+def aco_update(tau: np.ndarray, rho: float, paths: list, deposits: list,
+               tau_min: float, tau_max: float) -> np.ndarray:
+    """Evaporate and deposit: ``tau <- clip((1 - rho) tau + sum of deposits, tau_min, tau_max)``.
+
+    Parameters
+    ----------
+    tau : ndarray, shape (P, K)
+        Pheromone before the update.
+    rho : float
+        Evaporation ("volatilisation") coefficient, the fraction of pheromone that evaporates each
+        iteration (paper section 3.2: 0.9).
+    paths : list of ndarray of int, each shape (P,)
+        The candidate index chosen per parameter by each depositing ant.
+    deposits : list of float
+        The amount each depositing ant lays on each of its chosen edges.
+    tau_min, tau_max : float
+        MAX-MIN bounds.
+
+    Returns
+    -------
+    ndarray, shape (P, K)
+        Pheromone after the update (a new array).
+
+    References
+    ----------
+    Qiu et al. 2023 (fogbench seed 002), section 2.2 step 4 and section 3.2 (rho);
+    Stuetzle & Hoos 2000, eqs. 4-5 and 11 there (update, bounds).
+    """
+    new = (1.0 - rho) * tau
+    rows = np.arange(tau.shape[0])
+    for path, dep in zip(paths, deposits):
+        new[rows, path] += dep
+    return np.clip(new, tau_min, tau_max)
+
+
+@register
+class AcoBp(Bp):
+    """BP network whose initial weights and thresholds are chosen by ant colony optimisation.
+
+    The network, normalisation and gradient-descent training are those of :class:`Bp`; only the
+    starting point differs (paper section 2.2, Fig. 2). The ACO is a pheromone-table ant system
+    for continuous parameters, in the MAX-MIN form [2]_:
+
+    1. Each of the P = 4 H + 1 = 37 parameters gets ``n_candidates`` (K = 20) candidate values,
+       evenly spaced over ``[-init_scale, init_scale]``; pheromone ``tau[j, k] = 1`` on every
+       candidate at the start.
+    2. Each of the 10 ants builds a network by picking, for every parameter j, candidate k with
+       probability ``tau[j, k]^alpha / sum_k tau[j, k]^alpha`` (:func:`aco_sample`; there is no
+       heuristic information for a weight, so the pheromone alone drives the choice).
+    3. Each ant's network is scored by its MSE on the (normalised) training data.
+    4. Pheromone update (:func:`aco_update`): evaporation ``tau <- (1 - rho) tau`` with
+       rho = 0.9, then the iteration-best and the global-best ants deposit ``L_ref / L`` on the
+       candidates they chose (L their MSE, L_ref the MSE of the all-zero network, so better ants
+       deposit more), then ``tau`` is clipped to ``[tau_min, tau_max]`` with
+       ``tau_max = 2 q_gb / rho`` (the steady state of a candidate both ants keep choosing) and
+       ``tau_min`` from the MAX-MIN rule with ``p_best`` (eq. 11 of [2]_), so that no candidate's
+       probability reaches zero and the search keeps exploring.
+    5. Repeat ``aco_iter`` times; the global-best network is the starting point of BP.
+
+    What rho means: the paper calls rho = 0.9 the pheromone "volatilisation coefficient" and says
+    that too small a rho makes the colony converge too fast onto one path, too large a rho makes
+    it ignore useful information. That is the behaviour of the evaporated fraction, so the update
+    is ``tau <- (1 - rho) tau + deposit`` (a small rho keeps old pheromone and lets it pile up on
+    early paths; a large rho forgets). With rho = 0.9 each iteration keeps 10 % of the old
+    pheromone: the colony is steered mostly by the latest best ants.
+
+    Parameters
+    ----------
+    hidden_size, learning_rate, goal, max_epochs, init_scale, random_state
+        As :class:`Bp`. ``init_scale`` is also the half-width of the ACO's search box.
+    n_ants : int, default 10
+        Ants per iteration (paper section 3.2).
+    rho : float, default 0.9
+        Evaporation coefficient in (0, 1] (paper section 3.2).
+    aco_iter : int, default 50
+        ACO iterations (the paper does not give the number).
+    n_candidates : int, default 20
+        Candidate values per parameter (K >= 2).
+    aco_alpha : float, default 1.0
+        Pheromone exponent of the transition probability.
+    p_best : float, default 0.05
+        MAX-MIN parameter setting tau_min ([2]_ eq. 11), in (0, 1).
+
+    Attributes
+    ----------
+    As :class:`Bp`, plus
+    aco_best_loss_curve_ : ndarray, shape (aco_iter,)
+        Global-best normalised MSE after each ACO iteration; its last value is ``initial_loss_``.
+    aco_params_ : ndarray, shape (4 * hidden_size + 1,)
+        The ACO's best network, the starting point of gradient descent.
+
+    References
+    ----------
+    .. [1] Qiu et al. 2023 (fogbench seed 002): section 2.2 (ACO steps, Fig. 2), section 3.2
+       (10 ants, rho = 0.9), eqs. 2-4 (network).
+    .. [2] Stuetzle & Hoos 2000, MAX-MIN Ant System, FGCS 16(8): 889-914.
+    """
+
+    name = "aco_bp"
+
+    def __init__(self, hidden_size: int = 9, learning_rate: float = 0.1, goal: float = 1e-5,
+                 max_epochs: int = 1000, init_scale: float = 1.0, n_ants: int = 10,
+                 rho: float = 0.9, aco_iter: int = 50, n_candidates: int = 20,
+                 aco_alpha: float = 1.0, p_best: float = 0.05, random_state=None):
+        super().__init__(hidden_size=hidden_size, learning_rate=learning_rate, goal=goal,
+                         max_epochs=max_epochs, init_scale=init_scale, random_state=random_state)
+        self.n_ants = n_ants
+        self.rho = rho
+        self.aco_iter = aco_iter
+        self.n_candidates = n_candidates
+        self.aco_alpha = aco_alpha
+        self.p_best = p_best
+
+    def _validate(self) -> None:
+        super()._validate()
+        for nm, lo in (("n_ants", 1), ("aco_iter", 1), ("n_candidates", 2)):
+            v = getattr(self, nm)
+            if not (_is_int(v) and v >= lo):
+                raise ValueError(f"{nm}: must be an integer >= {lo}, got {v!r}")
+        if not (_is_num(self.rho) and 0 < self.rho <= 1):
+            raise ValueError(f"rho: evaporation coefficient must be in (0, 1], got {self.rho!r}")
+        if not (_is_num(self.aco_alpha) and self.aco_alpha > 0):
+            raise ValueError(f"aco_alpha: must be a positive finite number, got {self.aco_alpha!r}")
+        if not (_is_num(self.p_best) and 0 < self.p_best < 1):
+            raise ValueError(f"p_best: must be in (0, 1), got {self.p_best!r}")
+
+    def _initial_params(self, x, t, rng):
+        H = self.hidden_size
+        P = n_params(H)
+        K = self.n_candidates
+        values = np.linspace(-self.init_scale, self.init_scale, K)
+        tau = np.ones((P, K))
+        l_ref = max(float(t @ t / t.size), np.finfo(float).tiny)
+        p_dec = self.p_best ** (1.0 / P)
+        avg = max(K / 2.0, 2.0)
+        best_idx, best_loss = None, np.inf
+        curve = []
+        for _ in range(self.aco_iter):
+            idx = aco_sample(tau, self.aco_alpha, self.n_ants, rng)
+            y = net_forward(values[idx], x, H)
+            losses = np.mean((y - t) ** 2, axis=1)
+            if not np.all(np.isfinite(losses)):
+                raise DivergenceError(f"{self.name}: non-finite loss in the ant colony")
+            ib = int(np.argmin(losses))
+            if losses[ib] < best_loss:
+                best_idx, best_loss = idx[ib].copy(), float(losses[ib])
+            curve.append(best_loss)
+            q_ib = l_ref / max(float(losses[ib]), 1e-300)
+            q_gb = l_ref / max(best_loss, 1e-300)
+            tau_max = 2.0 * q_gb / self.rho
+            tau_min = tau_max * (1.0 - p_dec) / ((avg - 1.0) * p_dec)
+            tau = aco_update(tau, self.rho, [idx[ib], best_idx], [q_ib, q_gb], tau_min, tau_max)
+        self.aco_best_loss_curve_ = np.asarray(curve)
+        self.aco_params_ = values[best_idx]
+        return self.aco_params_.copy()
+
+    def _state(self):
+        info, arrays = super()._state()
+        arrays = dict(arrays, aco_best_loss_curve=self.aco_best_loss_curve_,
+                      aco_params=self.aco_params_)
+        return info, arrays
+
+    def _restore(self, info, arrays):
+        super()._restore(info, arrays)
+        self.aco_best_loss_curve_ = np.asarray(arrays["aco_best_loss_curve"], dtype=float)
+        self.aco_params_ = np.asarray(arrays["aco_params"], dtype=float)

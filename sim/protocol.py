@@ -51,7 +51,7 @@ class Selection:
         if self.start_s is not None or self.end_s is not None:
             parts.append(f"{self.start_s or 0:g}..{'' if self.end_s is None else f'{self.end_s:g}'} s")
         if self.stride > 1:
-            parts.append(f"every {self.stride}th sample from {self.offset}")
+            parts.append(f"every {self.stride}-th sample from #{self.offset}")
         if self.static_only:
             parts.append("static samples only")
         return ", ".join(parts)

@@ -1,0 +1,296 @@
+"""Tests of the wavelet neural network compensation (paper 000), fogcomp.methods.wnn."""
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+import pywt
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from scipy.signal import lfilter
+
+from fogcomp import DivergenceError, GyroData, load_model, make_method, save_model
+from fogcomp.methods.wnn import (
+    WaveletNeuralNetwork,
+    auto_level,
+    mallat_split,
+    morlet,
+    wnn_forward,
+    wnn_loss_and_grad,
+)
+from fogcomp.units import DPS
+
+FS = 100.0
+
+
+# ---------------------------------------------------------------------------------------------
+# Mallat split (paper eq. 3)
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(n=st.integers(2, 3000), level=st.integers(1, 12),
+       mode=st.sampled_from(["symmetric", "periodization", "periodic"]),
+       wavelet=st.sampled_from(["db6", "db2", "sym8"]), seed=st.integers(0, 2**32 - 1),
+       scale=st.sampled_from([1e-3, 1.0, 1e3]))
+def test_mallat_trend_plus_residual_is_signal(n, level, mode, wavelet, seed, scale):
+    x = scale * np.random.default_rng(seed).normal(size=n) - 60 * DPS * scale
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # levels too deep are clamped, with a warning
+        trend, residual = mallat_split(x, wavelet, level, mode)
+    assert trend.shape == residual.shape == x.shape
+    np.testing.assert_allclose(trend + residual, x, rtol=0, atol=1e-12 * np.max(np.abs(x)))
+
+
+def test_mallat_separates_slow_and_fast_components():
+    # Wavelet theory: at level M the approximation keeps |f| < ~fs/2^(M+1) and the details the
+    # rest. A sine at fs/1000 must end in the trend, one at fs/4 in the residual.
+    n = 4096
+    i = np.arange(n)
+    slow = np.sin(2 * np.pi * i / 1000)
+    fast = 0.5 * np.cos(np.pi * i / 2 + 0.3)
+    trend, residual = mallat_split(slow + fast, "db6", 5)
+    inner = slice(200, n - 200)  # away from the boundary extension
+    np.testing.assert_allclose(trend[inner], slow[inner], atol=2e-3)
+    np.testing.assert_allclose(residual[inner], fast[inner], atol=2e-3)
+
+
+def test_mallat_too_deep_level_warns_and_clamps():
+    x = np.random.default_rng(0).normal(size=2500)
+    lmax = pywt.dwt_max_level(2500, pywt.Wavelet("db6").dec_len)
+    assert lmax == 7
+    with pytest.warns(UserWarning, match="deeper than a record of 2500 samples"):
+        t12, r12 = mallat_split(x, "db6", 12)
+    t7, r7 = mallat_split(x, "db6", lmax)
+    np.testing.assert_array_equal(t12, t7)
+    np.testing.assert_array_equal(r12, r7)
+
+
+def _gauss_markov(rng, n, tau, std):
+    """First-order Gauss-Markov sequence, correlation time tau samples, stationary std."""
+    phi = math.exp(-1.0 / tau)
+    w = rng.normal(scale=std * math.sqrt(1 - phi**2), size=n)
+    x0 = rng.normal(scale=std)
+    return lfilter([1.0], [1.0, -phi], w, zi=[phi * x0])[0]
+
+
+def test_auto_level_deeper_for_slower_drift():
+    # Drift: Gauss-Markov, std s = 2 sigma, correlation time tau samples; one-sided PSD
+    # S(f) = 4 s^2 tau / (1 + (2 pi f tau)^2) (cycles/sample). White noise: 2 sigma^2. The
+    # criterion passes level M while the residual's median PSD in octave band M (median bin at
+    # f = 0.75 * 2^-M), drift plus white, stays under 3x the white floor: S(f) <= 4 sigma^2.
+    # The wavelet filters' roll-off blurs the band edges, hence +-1 level.
+    rng = np.random.default_rng(11)
+    n, sigma = 2500, 1e-3
+    lmax = pywt.dwt_max_level(n, 12)
+    levels = {}
+    for tau in (30, 3000):
+        x = -60 * DPS + sigma * rng.normal(size=n) + _gauss_markov(rng, n, tau, 2 * sigma)
+        levels[tau], crit = auto_level(x, psd_ratio=3.0)
+        m = levels[tau]
+        assert np.all(crit[:m] <= 3.0) and (m == lmax or crit[m] > 3.0)
+        s2 = (2 * sigma) ** 2
+
+        def drift_psd(f):
+            return 4 * s2 * tau / (1 + (2 * np.pi * f * tau) ** 2)
+
+        passes = [drift_psd(0.75 * 2.0**-mm) <= 4 * sigma**2 for mm in range(1, lmax + 1)]
+        predicted = lmax if all(passes) else passes.index(False)
+        assert abs(m - predicted) <= 1, (tau, m, predicted)
+    assert levels[3000] >= levels[30] + 2
+
+
+def test_auto_level_white_noise_is_deepest():
+    # No low-frequency content at all: every level passes, the trend is the coarsest.
+    x = np.random.default_rng(3).normal(size=2500)
+    level, crit = auto_level(x)
+    assert level == pywt.dwt_max_level(2500, 12)
+    assert crit.shape == (level,)
+
+
+def test_fit_with_too_deep_level_warns():
+    x = -60 * DPS + 1e-3 * np.random.default_rng(0).normal(size=2500)
+    model = WaveletNeuralNetwork(level=12, max_iter=3, random_state=0)
+    with pytest.warns(UserWarning, match="using M = 7"):
+        model.fit(GyroData(rate=x, fs=FS))
+    assert model.level_ == 7
+    assert model.level == 12  # the hyperparameter is stored as given
+
+
+# ---------------------------------------------------------------------------------------------
+# Network (eqs. 5-6) and gradient (eqs. 9-10)
+def _params(rng, k=5, l=4):
+    return (rng.normal(size=(k, l)), rng.normal(size=l), rng.uniform(0.5, 2.0, l),
+            rng.normal(size=l))
+
+
+def test_forward_and_loss_match_a_plain_loop():
+    rng = np.random.default_rng(1)
+    X, t = rng.normal(size=(30, 5)), rng.normal(size=30)
+    W, w_out, a, b = _params(rng)
+    y = wnn_forward(X, W, w_out, a, b)
+    loss, _ = wnn_loss_and_grad(X, t, W, w_out, a, b)
+    total = 0.0
+    for n in range(30):
+        yn = 0.0
+        for j in range(4):
+            arg = (sum(W[i, j] * X[n, i] for i in range(5)) - b[j]) / a[j]
+            yn += w_out[j] * math.exp(-arg * arg / 2) * math.cos(6.0 * arg)
+        assert y[n] == pytest.approx(yn, rel=1e-12, abs=1e-12)
+        total += 0.5 * (yn - t[n]) ** 2
+    assert loss == pytest.approx(total / 30, rel=1e-12)
+    assert morlet(0.0) == 1.0 and morlet(1.0) == pytest.approx(math.exp(-0.5) * math.cos(6.0))
+
+
+def test_gradient_matches_finite_differences():
+    rng = np.random.default_rng(2)
+    X, t = rng.normal(size=(40, 5)), rng.normal(size=40)
+    params = list(_params(rng))
+    _, grads = wnn_loss_and_grad(X, t, *params)
+    h = 1e-6
+    for p, g in zip(params, grads):
+        fd = np.empty_like(p)
+        for idx in np.ndindex(p.shape):
+            old = p[idx]
+            p[idx] = old + h
+            lp, _ = wnn_loss_and_grad(X, t, *params)
+            p[idx] = old - h
+            lm, _ = wnn_loss_and_grad(X, t, *params)
+            p[idx] = old
+            fd[idx] = (lp - lm) / (2 * h)
+        assert np.linalg.norm(fd - g) <= 1e-5 * np.linalg.norm(g)
+
+
+# ---------------------------------------------------------------------------------------------
+# End to end: a known high-frequency error
+def _narrowband_record(seed, n):
+    """-60 deg/s + slow drift (truth) + narrowband error at fs/4 + white noise.
+
+    The narrowband error is an AR(2) process with poles 0.98 exp(+-j pi/2) (a vibration-like
+    error at a quarter of the sample rate, random amplitude and phase), std 1e-2 rad/s; the
+    white noise has std 1e-3 rad/s; the drift is 2e-4 rad/s at a period of 3000 samples.
+    """
+    rng = np.random.default_rng(seed)
+    burn = 500
+    i = np.arange(n)
+    truth = -60 * DPS + 2e-4 * np.sin(2 * np.pi * i / 3000 + rng.uniform(0, 2 * np.pi))
+    hf = lfilter([1.0], [1.0, 0.0, 0.98**2], rng.normal(size=n + burn))[burn:]
+    hf *= 1e-2 / np.std(hf)
+    return truth, truth + hf + 1e-3 * rng.normal(size=n)
+
+
+@pytest.fixture(scope="module")
+def narrowband_fit():
+    truth, raw = _narrowband_record(7, 3500)
+    fit_data = GyroData(rate=raw[:2500], fs=FS)
+    test_data = GyroData(rate=raw[2500:], fs=FS)
+    model = WaveletNeuralNetwork(random_state=42).fit(fit_data)
+    return model, fit_data, test_data, truth[2500:]
+
+
+def test_loss_curve_decreases(narrowband_fit):
+    model = narrowband_fit[0]
+    assert model.n_iter_ == 200
+    assert model.loss_curve_.shape == (201,)
+    assert np.all(np.isfinite(model.loss_curve_))
+    # the residual is mostly the narrowband error, which 5 samples predict well
+    assert model.loss_curve_[-1] < model.loss_curve_[0] / 10
+
+
+def test_wnn_removes_narrowband_error_on_fresh_samples(narrowband_fit):
+    # The target residual of the fitting record is the narrowband error plus the part of the
+    # white noise above the trend band. Five samples of an error concentrated at fs/4 predict
+    # it almost exactly (the plain least-squares linear predictor on the same windows, below,
+    # leaves about 1/80 of it), so removing "most" of the error leaves about the white-noise
+    # level, 1e-3, i.e. a factor near 10 in std on the compensated rate against the truth
+    # (-60 deg/s plus the drift, which the WNN by design keeps in its output).
+    model, fit_data, test_data, truth = narrowband_fit
+    before = np.std(test_data.rate - truth)
+    after = np.std(model.compensate(test_data) - truth)
+    factor = before / after
+    assert factor > 8, f"std reduction factor {factor:.1f}"
+    # independent reference: least-squares linear predictor of the same target
+    k = 5
+    _, resid = mallat_split(fit_data.rate, "db6", model.level_)
+    Xf = np.lib.stride_tricks.sliding_window_view(fit_data.rate, k)
+    A = np.column_stack([Xf, np.ones(len(Xf))])
+    coef = np.linalg.lstsq(A, resid[:len(Xf)], rcond=None)[0]
+    Xt = np.lib.stride_tricks.sliding_window_view(np.pad(test_data.rate, (0, k - 1),
+                                                         mode="symmetric"), k)
+    lin = test_data.rate - np.column_stack([Xt, np.ones(len(Xt))]) @ coef
+    assert before / np.std(lin - truth) > factor / 2  # the WNN is no miracle either
+
+
+def test_estimate_error_is_predicted_residual(narrowband_fit):
+    model, _, test_data, _ = narrowband_fit
+    err = model.estimate_error(test_data)
+    assert err.shape == test_data.rate.shape
+    np.testing.assert_array_equal(model.compensate(test_data), test_data.rate - err)
+    # short records are padded to full length too
+    assert model.estimate_error(test_data.slice(slice(0, 3))).shape == (3,)
+
+
+def test_state_round_trip_is_exact(narrowband_fit, tmp_path):
+    model, _, test_data, _ = narrowband_fit
+    save_model(model, tmp_path / "wnn")
+    loaded = load_model(tmp_path / "wnn")
+    np.testing.assert_array_equal(loaded.estimate_error(test_data), model.estimate_error(test_data))
+    np.testing.assert_array_equal(loaded.loss_curve_, model.loss_curve_)
+    assert loaded.level_ == model.level_ and loaded.n_iter_ == model.n_iter_
+
+
+# ---------------------------------------------------------------------------------------------
+# Randomness and failure modes
+def _small_data(seed=0, n=600):
+    rng = np.random.default_rng(seed)
+    return GyroData(rate=-60 * DPS + 1e-3 * rng.normal(size=n), fs=FS)
+
+
+def test_deterministic_under_seed():
+    data = _small_data()
+    m1 = make_method("wnn", random_state=5, max_iter=30).fit(data)
+    m2 = make_method("wnn", random_state=5, max_iter=30).fit(data)
+    m3 = make_method("wnn", random_state=6, max_iter=30).fit(data)
+    np.testing.assert_array_equal(m1.estimate_error(data), m2.estimate_error(data))
+    np.testing.assert_array_equal(m1.input_weights_, m2.input_weights_)
+    np.testing.assert_array_equal(m1.loss_curve_, m2.loss_curve_)
+    assert not np.array_equal(m1.input_weights_, m3.input_weights_)
+    assert not np.array_equal(m1.estimate_error(data), m3.estimate_error(data))
+
+
+def test_exploding_training_raises_divergence_error():
+    with pytest.raises(DivergenceError, match="diverged"):
+        WaveletNeuralNetwork(eta1=1e4, eta2=1e4, random_state=0).fit(_small_data())
+
+
+def test_bad_hyperparameters_name_the_argument():
+    data = _small_data()
+    for kwargs, name in [({"target_offset": 5}, "target_offset"), ({"level": 0}, "level"),
+                         ({"level": "deep"}, "level"), ({"eta3": 1.0}, "eta3"),
+                         ({"wavelet": "nope"}, "wavelet"), ({"n_hidden": 0}, "n_hidden")]:
+        with pytest.raises(ValueError, match=name):
+            WaveletNeuralNetwork(random_state=0, **kwargs).fit(data)
+    with pytest.raises(ValueError, match="random_state"):
+        WaveletNeuralNetwork().fit(data)
+    with pytest.raises(ValueError, match="rate"):
+        WaveletNeuralNetwork(random_state=0).fit(GyroData(rate=np.zeros(5), fs=FS))
+
+
+def test_target_offset_aligns_window():
+    # A single unit that reads only window slot j outputs psi(x[t - offset + j]) for sample t
+    # (paper: inputs x_n..x_n+4 for output y_n, i.e. offset 0). Beyond the ends the record is
+    # reflected about its end samples (half-sample symmetric: x[-1] = x[0], x[n] = x[n-1]).
+    data = _small_data(n=40)
+    n, k = 40, 5
+
+    def reflect(i):
+        return -i - 1 if i < 0 else (2 * n - 1 - i if i >= n else i)
+
+    for off in (0, 2, 4):
+        m = WaveletNeuralNetwork(target_offset=off, max_iter=1, random_state=0).fit(data)
+        xn = (data.rate - m.x_mean_) / m.x_scale_
+        for j in (0, 3):
+            m.input_weights_ = np.zeros((k, 1))
+            m.input_weights_[j, 0] = 1.0
+            m.scales_, m.translations_, m.output_weights_ = np.ones(1), np.zeros(1), np.ones(1)
+            got = (m.predict_residual(data) - m.y_mean_) / m.y_scale_
+            want = [morlet(xn[reflect(t - off + j)]) for t in range(n)]
+            np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-15)

@@ -30,7 +30,8 @@ __all__ = ["write_run_dir", "KEY_METRICS", "fmt"]
 
 MAX_PLOT_POINTS = 4000
 KEY_METRICS = ("std_dps", "rmse_dph", "drift_rms_dph", "bias_stability_100s_dph",
-               "angle_error_final_deg", "coef_rms_error_dph", "improvement_rmse_pct", "fit_time_s")
+               "angle_error_final_deg", "coef_rms_error_dph", "arw_deg_rt_h",
+               "bias_instability_dph", "rrw_dph_rt_h", "improvement_rmse_pct", "fit_time_s")
 COLORS = {"raw": "0.6", "oracle": "0.2", "truth": "tab:green"}
 METHOD_COLORS = ["tab:blue", "tab:orange", "tab:red", "tab:purple", "tab:brown", "tab:pink",
                  "tab:cyan", "tab:olive"]
@@ -254,10 +255,14 @@ def render_report(res: ScenarioResult, fig_names: dict, decimation: dict) -> str
                     c = fmt(m.get(met), met)
                     pv = _paper_value(plan, lab, met, run)
                     if pv is not None:
-                        c += f" (paper: {fmt(pv.value, met)})"
+                        c += f" (ref: {fmt(pv.value, met)})"
                     cells.append(c)
                 rows.append([lab] + cells + ["ok"])
             L += [f"### {run}", "", _table(header, rows), ""]
+            refs = sorted({pv.source for pv in plan.paper if pv.run in (None, run)
+                           and pv.segment is None})
+            if refs:
+                L += ["(ref: " + "; ".join(refs) + ")", ""]
             seg = _segment_table(res, prot.name, run)
             if seg:
                 L += [seg, ""]

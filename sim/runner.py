@@ -152,6 +152,14 @@ def score(out: np.ndarray, piece: Piece, raw_ref: dict | None = None) -> dict:
         means = [np.mean(b) for b in np.split(err, gaps) if b.size]
         m["drift_rms_dph"] = float(np.sqrt(np.mean(np.square(means)))) / DPH
     dur = out.size / piece.fs
+    if dur >= 1000.0 and out.size >= 512 and piece.fs >= 1.0 and gaps.size == 0:
+        # noise identification (IEEE Std 952 terms) of the error against the truth
+        from fogcomp.allan import allan_report
+
+        ds = allan_report(err, piece.fs)[2].to_datasheet()
+        for k in ("arw_deg_rt_h", "bias_instability_dph", "rrw_dph_rt_h"):
+            if ds.get(k) is not None:
+                m[k] = ds[k]
     if dur >= 300.0:
         m["bias_stability_100s_dph"] = M.bias_stability(out, piece.fs, 100.0) / DPH
     if raw_ref is not None:

@@ -60,7 +60,9 @@ class FogParams:
     ----------
     bias : rad/s.  switch_on_bias_sigma : rad/s.  arw : rad/sqrt(s).
     bias_instability : B, rad/s (Allan floor 0.664 B).  bi_band : (f_low, f_high), Hz, the corner
-    frequencies spanned by the flicker model.  bi_per_decade : Gauss-Markov components per decade.
+    frequencies spanned by the flicker model. A real FOG's flicker floor runs on to the longest
+    averaging times (until rate random walk takes over): keep f_low far below 1 / record length
+    (default 1e-6 Hz), or the Allan curve falls again past tau ~ 1 / (2 pi f_low).  bi_per_decade : Gauss-Markov components per decade.
     rrw : rad/s/sqrt(s).  rate_ramp : rad/s^2.  quantization : rad per output quantum.
     scale_factor : k0 (dimensionless).  sf_nonlinearity : k_nl at full scale (dimensionless).
     full_scale : rad/s.  sf_temp_coeff : kT, 1/degC.
@@ -77,7 +79,7 @@ class FogParams:
     switch_on_bias_sigma: float = 0.0
     arw: float = 0.0
     bias_instability: float = 0.0
-    bi_band: tuple[float, float] = (1e-4, 0.1)
+    bi_band: tuple[float, float] = (1e-6, 0.1)
     bi_per_decade: int = 3
     rrw: float = 0.0
     rate_ramp: float = 0.0

@@ -230,7 +230,7 @@ def _fog(tbl: _Table, fs: float) -> tuple[FogParams, str | None, str, tuple[str,
                              f"the Nyquist frequency {fs / 2} Hz of sample_rate_hz")
         kw["bi_band"] = tuple(band)
     elif kw.get("bias_instability"):
-        kw["bi_band"] = (min(1e-4, fs / 20), min(0.1, fs / 2))
+        kw["bi_band"] = (1e-6, min(0.1, fs / 2))
     per_decade = merged.get("bias_instability_per_decade", "int", None, lo=1, hi=20)
     if per_decade is not None:
         kw["bi_per_decade"] = per_decade

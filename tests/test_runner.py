@@ -1,0 +1,244 @@
+"""The runner, the protocol loader, reports and the suite's bound check, end to end."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import fogcomp
+from fogcomp.base import Compensator, DivergenceError, register
+from sim.protocol import load_plan
+from sim.scenario import RUNNER_SECTIONS, ScenarioError, load_scenario
+from sim.suite import run_suite
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@register
+class _Broken(Compensator):
+    """A deliberately broken method: it adds a large error instead of removing one."""
+
+    name = "test_broken_adds_error"
+
+    def __init__(self):
+        pass
+
+    def _fit(self, data, error):
+        pass
+
+    def _estimate(self, data):
+        return np.full(len(data), -1.0)  # compensated = raw + 1 rad/s
+
+    def _state(self):
+        return {}, {}
+
+    def _restore(self, info, arrays):
+        pass
+
+
+@register
+class _Diverges(Compensator):
+    name = "test_always_diverges"
+
+    def __init__(self):
+        pass
+
+    def _fit(self, data, error):
+        raise DivergenceError("loss became NaN at iteration 3")
+
+    def _estimate(self, data):  # pragma: no cover
+        raise AssertionError
+
+    def _state(self):  # pragma: no cover
+        return {}, {}
+
+    def _restore(self, info, arrays):  # pragma: no cover
+        pass
+
+
+SMALL = """
+[scenario]
+name = "small"
+description = "a small end-to-end scenario"
+sample_rate_hz = 50.0
+
+[fog]
+preset = "low_grade"
+
+[[runs]]
+name = "fit"
+seed = 1
+[[runs.motion]]
+type = "rate"
+rate_dps = -60.0
+duration_s = 12.0
+
+[[runs]]
+name = "test"
+seed = 2
+[[runs.motion]]
+type = "rate"
+rate_dps = -60.0
+duration_s = 8.0
+
+[compensation]
+ci = true
+
+[[protocols]]
+name = "held_out"
+skip_s = 1.0
+fit = ["fit"]
+score = ["test"]
+
+[[methods]]
+name = "wavelet_soft"
+
+[[methods]]
+name = "kalman"
+
+[[methods]]
+name = "METHOD3"
+
+[[bounds]]
+protocol = "held_out"
+method = "wavelet_soft"
+metric = "std_dps"
+max = 0.1
+note = "the denoiser must cut the 0.13 deg/s raw noise"
+
+[[bounds]]
+protocol = "held_out"
+method = "METHOD3"
+metric = "rmse_dph"
+max = 1000.0
+note = "a compensator must not add error"
+"""
+
+
+def scenario(tmp_path, method3="kalman", label3="kalman_copy", extra="", name="small.toml"):
+    text = SMALL.replace('name = "METHOD3"', f'name = "{method3}"\nlabel = "{label3}"')
+    text = text.replace('method = "METHOD3"', f'method = "{label3}"') + extra
+    d = tmp_path / "scen"
+    d.mkdir(exist_ok=True)
+    p = d / name
+    p.write_text(text)
+    return p
+
+
+def plan_of(path):
+    return load_plan(load_scenario(path, extra_sections=RUNNER_SECTIONS))
+
+
+def test_loader_refuses_scoring_on_fitted_samples(tmp_path):
+    p = scenario(tmp_path)
+    p.write_text(p.read_text().replace('score = ["test"]', 'score = ["test", "fit"]'))
+    with pytest.raises(ScenarioError, match=r"run 'fit' is scored on \d+ samples it was fitted on"):
+        plan_of(p)
+    # allowed only when flagged in_sample and beside a held-out protocol
+    p.write_text(p.read_text().replace('skip_s = 1.0', 'skip_s = 1.0\nin_sample = true'))
+    with pytest.raises(ScenarioError, match="must stand beside a held-out one"):
+        plan_of(p)
+
+
+def test_loader_refuses_unknown_methods_params_and_bad_bounds(tmp_path):
+    with pytest.raises(ScenarioError, match=r"\[\[methods\]\]\[2\] key 'name': unknown method"):
+        plan_of(scenario(tmp_path, method3="no_such_method"))
+    p = scenario(tmp_path)
+    p.write_text(p.read_text().replace('name = "wavelet_soft"',
+                                       'name = "wavelet_soft"\nparams = { thresh = 1.0 }'))
+    with pytest.raises(ScenarioError, match="key 'params'.*unknown hyperparameter"):
+        plan_of(p)
+    bounds = [('max = 0.1', '', "a bound needs 'min', 'max' or both"),
+              ('max = 0.1', 'max = 0.1\nmin = 0.5', "expected min <= max"),
+              ('metric = "std_dps"', 'metric = "precision"', "key 'metric': expected one of"),
+              ('protocol = "held_out"\nmethod', 'protocol = "nope"\nmethod',
+               "key 'protocol': expected one of")]
+    for old, new, words in bounds:
+        p = scenario(tmp_path)
+        p.write_text(p.read_text().replace(old, new, 1))
+        with pytest.raises(ScenarioError) as exc:
+            plan_of(p)
+        msg = str(exc.value)
+        assert "[[bounds]][0]" in msg and str(p) in msg and words in msg, msg
+
+
+def test_run_writes_metrics_report_and_figures_from_a_clean_directory(tmp_path):
+    p = scenario(tmp_path, method3="test_always_diverges", label3="diverges")
+    out = tmp_path / "clean" / "run"
+    r = subprocess.run([sys.executable, "-m", "sim.cli", "run", str(p), "--out", str(out),
+                        "--no-recording", "--quiet"], capture_output=True, text=True, cwd=ROOT,
+                       env={**__import__("os").environ,
+                            "PYTHONPATH": f"{ROOT}:{Path(__file__).parent}"})
+    # the diverging method is registered only in this test process, so the subprocess
+    # refuses the scenario: run it in-process instead
+    assert r.returncode == 2 and "unknown method 'test_always_diverges'" in r.stderr
+    assert not out.exists()
+    from sim.report import write_run_dir
+    from sim.runner import run_scenario
+
+    res = run_scenario(p)
+    write_run_dir(res, out, recording=False)
+    doc = json.loads((out / "metrics.json").read_text())
+    m = doc["protocols"]["held_out"]["runs"]["test"]
+    assert m["diverges"]["status"] == "failed" and "NaN" in m["diverges"]["error"]
+    # the low-grade FOG's ARW of 0.8 deg/sqrt(h) at 50 Hz: 0.8 / 60 * sqrt(50) = 0.094 deg/s
+    assert abs(m["raw"]["std_dps"] / (0.8 / 60 * 50**0.5) - 1) < 0.1
+    assert m["wavelet_soft"]["std_dps"] < m["raw"]["std_dps"] / 3
+    assert m["kalman"]["fit_time_s"] >= 0 and "compensate_time_s" in m["kalman"]
+    # the oracle removes the deterministic terms: its mean error is the noise's, near zero
+    assert abs(m["oracle"]["mean_error_dph"]) < abs(m["raw"]["mean_error_dph"])
+    report = (out / "report.md").read_text()
+    assert "FAILED: DivergenceError: loss became NaN" in report
+    for fig in ("timeseries", "psd", "allan"):
+        png = out / "figures" / f"held_out__test__{fig}.png"
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+        assert f"figures/held_out__test__{fig}.png" in report
+    with np.load(out / "data" / "test.npz", allow_pickle=False) as z:
+        assert z["raw_rps"].shape == (400, 1)
+    assert not list(out.parent.glob(".*part"))
+
+
+def test_scored_samples_are_never_the_fitted_ones(tmp_path):
+    from sim.runner import run_scenario
+
+    res = run_scenario(scenario(tmp_path))
+    (item,) = res.scored
+    assert item.run == "test" and item.piece.raw.size == 7 * 50
+    rd = res.data["test"]
+    np.testing.assert_array_equal(item.piece.raw, rd.fog.raw[50:, 0])
+
+
+def test_suite_check_fails_on_a_broken_method_and_passes_otherwise(tmp_path, capsys):
+    good = scenario(tmp_path)
+    assert run_suite(good.parent, tmp_path / "rep", check=True, jobs=1, recording=False,
+                     quiet=True) == 0
+    summary = (tmp_path / "rep" / "README.md").read_text()
+    assert "[small](small/report.md)" in summary and "Every declared bound holds." in summary
+
+    bad_dir = tmp_path / "bad"
+    bad_dir.mkdir()
+    bad = scenario(tmp_path, method3="test_broken_adds_error", label3="broken")
+    (bad_dir / "small.toml").write_text(bad.read_text())
+    capsys.readouterr()
+    code = run_suite(bad_dir, tmp_path / "rep2", check=True, jobs=1, recording=False,
+                     quiet=True)
+    err = capsys.readouterr().err
+    assert code == 1
+    assert "small: protocol held_out, run test, method broken, rmse_dph" in err
+    assert "outside [–, 1000]" in err
+    # without --check the same suite reports but does not fail on the bound
+    assert run_suite(bad_dir, tmp_path / "rep3", check=False, jobs=1, recording=False,
+                     quiet=True) == 0
+
+
+def test_ci_subset_of_the_bundled_suite_holds_its_bounds(tmp_path):
+    """What `make test` runs of the real suite: the scenarios marked ci = true, checked."""
+    r = subprocess.run([sys.executable, "-m", "sim.cli", "suite", "--ci", "--check",
+                        "--no-recording", "--quiet", "--out", str(tmp_path / "reports")],
+                       capture_output=True, text=True, cwd=ROOT)
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert (tmp_path / "reports" / "README.partial.md").exists()
+    assert not (tmp_path / "reports" / "README.md").exists()

@@ -109,7 +109,7 @@ def _claims(plan, doc) -> list[str]:
                     continue
                 pairs = ", ".join(f"{k} {fmt(theirs[k], metric)} vs {fmt(ours[k], metric)}"
                                   for k in theirs)
-                line = f"`{prot.name}` ({tag}), {r}, {metric} (paper vs ours): {pairs}."
+                line = f"`{prot.name}` ({tag}), {r}, {metric} (reference vs ours): {pairs}."
                 if len(ours) >= 2:
                     p_order = sorted(theirs, key=theirs.get)
                     o_order = sorted(ours, key=ours.get)
@@ -153,7 +153,9 @@ def summary_markdown(results: list[dict], plans: dict, out: Path, violations: li
             L.append("")
         claims = _claims(plan, doc)
         if claims:
-            L += ["Against the paper:", ""] + [f"- {c}" for c in claims] + [""]
+            srcs = sorted({pv.source.split(",")[0] for pv in plan.paper})
+            L += [f"Against the reference figures ({'; '.join(srcs)}):", ""] + \
+                 [f"- {c}" for c in claims] + [""]
         for note in plan.notes:
             L += [f"> {note}", ""]
     L += ["## Bounds check", ""]

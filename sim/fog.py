@@ -107,7 +107,8 @@ class FogOutput:
 
     raw : shape (n, n_axes), rad/s (angle increment / sample interval).
     terms : term name -> shape (n, n_axes), rad/s; raw = truth + sum of terms. A term that is
-    switched off or has zero parameters is absent (its contribution is zero).
+    switched off or has zero parameters is absent (its contribution is zero). The arrays may be
+    read-only views (a constant term is a broadcast scalar): copy before changing them.
     draws : the switch-on values of this power-on (SI): ``switch_on_bias`` (n_axes,),
     ``g_sens`` (n_axes, 3), ``g2_sens`` (n_axes, 6).
     """
@@ -215,11 +216,11 @@ def simulate_fog(params: FogParams, fs: float, truth_rate: np.ndarray, specific_
         ai = AXES[name]
         w = truth_rate[:, ai]
         if p.bias:
-            put("constant_bias", j, np.full(n, p.bias))
+            put("constant_bias", j, np.broadcast_to(p.bias, (n,)))
         if p.switch_on_bias_sigma:
             b = _stream(seed, "switch_on_bias", ai).standard_normal() * p.switch_on_bias_sigma
             draws["switch_on_bias"][j] = b
-            put("switch_on_bias", j, np.full(n, b))
+            put("switch_on_bias", j, np.broadcast_to(b, (n,)))
         if p.arw and "arw" in enabled:
             put("arw", j, _stream(seed, "arw", ai).standard_normal(n) * (p.arw * math.sqrt(fs)))
         if p.bias_instability and "bias_instability" in enabled:
@@ -259,8 +260,13 @@ def simulate_fog(params: FogParams, fs: float, truth_rate: np.ndarray, specific_
 
     terms = {}
     for t in TERMS:
-        if t in per_axis:
-            terms[t] = np.stack([np.zeros(n) if v is None else v for v in per_axis[t]], axis=1)
+        if t not in per_axis:
+            continue
+        cols = per_axis[t]
+        if na == 1:   # a view, no copy (read-only where the term is a constant)
+            terms[t] = cols[0][:, None]
+        else:
+            terms[t] = np.stack([np.zeros(n) if v is None else v for v in cols], axis=1)
     idx = [AXES[a] for a in axes]
     cont = truth_rate[:, idx].copy()
     for k, v in terms.items():

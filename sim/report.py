@@ -377,6 +377,9 @@ def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_d
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}.", suffix=".part"))
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp, 0o777 & ~umask)  # mkdtemp makes it private; the result is an ordinary folder
     try:
         fig_names, decim = {}, {}
         (tmp / "figures").mkdir()

@@ -99,6 +99,21 @@ class PaperValue:
 
 
 @dataclass(frozen=True)
+class Claim:
+    """A paper's claim as a number: ``better`` improves ``metric`` over ``than`` by a percentage
+    100 (1 - better / than) inside [min_pct, max_pct] (mean over the scored runs, or ``run``)."""
+
+    text: str
+    source: str
+    metric: str
+    better: str
+    than: str
+    min_pct: float | None
+    max_pct: float | None
+    run: str | None = None
+
+
+@dataclass(frozen=True)
 class Plan:
     protocols: tuple[Protocol, ...]
     methods: tuple[MethodSpec, ...]
@@ -107,6 +122,7 @@ class Plan:
     axis: str
     ci: bool = False
     notes: tuple[str, ...] = field(default=())
+    claims: tuple[Claim, ...] = field(default=())
 
 
 def _segment_bounds(run: Run, fs: float) -> list[tuple[int, int]]:
@@ -289,8 +305,23 @@ def load_plan(sc: Scenario) -> Plan:
                                 value=t.get("value", "float"), source=t.get("source", "str"),
                                 segment=t.get("segment", "str", None)))
         t.done()
+
+    claims = []
+    for i, ct in enumerate(extra.get("claims", "tables", [])):
+        t = _Table(ct, f"[[claims]][{i}]", file)
+        c = Claim(text=t.get("text", "str"), source=t.get("source", "str"),
+                  metric=t.get("metric", "str", choices=METRIC_NAMES),
+                  better=t.get("better", "str", choices=known_methods),
+                  than=t.get("than", "str", choices=known_methods),
+                  min_pct=t.get("min_pct", "float", None), max_pct=t.get("max_pct", "float", None),
+                  run=t.get("run", "str", None, choices=names))
+        if c.min_pct is None and c.max_pct is None:
+            raise t.err("min_pct", "a claim needs 'min_pct', 'max_pct' or both")
+        t.done()
+        claims.append(c)
     extra.done()
-    return Plan(tuple(protocols), tuple(methods), tuple(bounds), tuple(paper), axis, ci, notes)
+    return Plan(tuple(protocols), tuple(methods), tuple(bounds), tuple(paper), axis, ci, notes,
+                tuple(claims))
 
 
 def expand(prot: Protocol, sc: Scenario) -> list[tuple[list[Selection], list[Selection]]]:

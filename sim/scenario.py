@@ -25,7 +25,7 @@ __all__ = ["ScenarioError", "Scenario", "Run", "load_scenario", "load_presets", 
 
 PRESETS_PATH = Path(__file__).with_name("presets.toml")
 # Top-level tables the runner reads and validates (sim.protocol); others are refused.
-RUNNER_SECTIONS = ("compensation", "protocols", "methods", "bounds", "paper")
+RUNNER_SECTIONS = ("compensation", "protocols", "methods", "bounds", "paper", "claims")
 
 
 class ScenarioError(ValueError):

@@ -120,6 +120,35 @@ def _claims(plan, doc) -> list[str]:
     return out
 
 
+def claim_verdicts(plan, doc) -> list[str]:
+    """Each numeric claim checked on each protocol: holds or does not, with the numbers."""
+    out = []
+    for c in plan.claims:
+        for pname, pd in doc["protocols"].items():
+            pcts = []
+            for run, by_method in pd["runs"].items():
+                if c.run is not None and run != c.run:
+                    continue
+                a, b = by_method.get(c.better, {}), by_method.get(c.than, {})
+                va, vb = a.get(c.metric), b.get(c.metric)
+                if isinstance(va, (int, float)) and isinstance(vb, (int, float)) and vb:
+                    pcts.append((run, 100.0 * (1.0 - va / vb), va, vb))
+            if not pcts:
+                continue
+            mean = sum(p[1] for p in pcts) / len(pcts)
+            ok = (c.min_pct is None or mean >= c.min_pct) and (c.max_pct is None or
+                                                                 mean <= c.max_pct)
+            rng = (f"{'' if c.min_pct is None else f'{c.min_pct:g}'}.."
+                   f"{'' if c.max_pct is None else f'{c.max_pct:g}'} %")
+            per = "; ".join(f"{r}: {fmt(va, c.metric)} vs {fmt(vb, c.metric)} ({p:+.0f} %)"
+                            for r, p, va, vb in pcts)
+            tag = " (in-sample)" if pd["in_sample"] else ""
+            out.append(f"{c.source}: \"{c.text}\" — protocol `{pname}`{tag}: {c.better} vs "
+                       f"{c.than} on {c.metric}: {mean:+.1f} % (claim {rng}): "
+                       f"**{'agrees' if ok else 'does not agree'}**. {per}.")
+    return out
+
+
 def summary_markdown(results: list[dict], plans: dict, out: Path, violations: list[str]) -> str:
     L = ["# fogbench suite: summary", "",
          "Each scenario's methods were fitted on some runs and scored on others against the "
@@ -151,6 +180,9 @@ def summary_markdown(results: list[dict], plans: dict, out: Path, violations: li
                 cells = [fmt(_mean_over_runs(pd, lab, m), m) for m in metrics]
                 L.append(f"| {lab} | " + " | ".join(cells) + " |")
             L.append("")
+        verdicts = claim_verdicts(plan, doc)
+        if verdicts:
+            L += ["Claims:", ""] + [f"- {v}" for v in verdicts] + [""]
         claims = _claims(plan, doc)
         if claims:
             srcs = sorted({pv.source.split(",")[0] for pv in plan.paper})

@@ -242,3 +242,20 @@ def test_ci_subset_of_the_bundled_suite_holds_its_bounds(tmp_path):
     assert r.returncode == 0, r.stderr[-3000:]
     assert (tmp_path / "reports" / "README.partial.md").exists()
     assert not (tmp_path / "reports" / "README.md").exists()
+
+
+def test_claim_verdicts_state_agreement_with_the_numbers():
+    from sim.protocol import Claim, Plan
+    from sim.suite import claim_verdicts
+
+    doc = {"protocols": {"p": {"in_sample": False, "runs": {
+        "r1": {"raw": {"x_dph": 1.0}, "m": {"x_dph": 0.25}},
+        "r2": {"raw": {"x_dph": 2.0}, "m": {"x_dph": 0.5}}}}}}
+    claim = Claim("m removes 70-80 %", "paper", "x_dph", "m", "raw", 70.0, 80.0)
+    plan = Plan((), (), (), (), "z", claims=(claim,))
+    (v,) = claim_verdicts(plan, doc)
+    assert "+75.0 %" in v and "**agrees**" in v and "r2: 0.5 vs 2" in v
+    plan = Plan((), (), (), (), "z", claims=(Claim("m removes 80 %+", "paper", "x_dph", "m",
+                                                     "raw", 80.0, None),))
+    (v,) = claim_verdicts(plan, doc)
+    assert "**does not agree**" in v and "claim 80.. %" in v

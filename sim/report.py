@@ -31,7 +31,8 @@ __all__ = ["write_run_dir", "KEY_METRICS", "fmt"]
 MAX_PLOT_POINTS = 4000
 KEY_METRICS = ("std_dps", "rmse_dph", "drift_rms_dph", "bias_stability_100s_dph",
                "angle_error_final_deg", "coef_rms_error_dph", "arw_deg_rt_h",
-               "bias_instability_dph", "rrw_dph_rt_h", "improvement_rmse_pct", "fit_time_s")
+               "bias_instability_dph", "rrw_dph_rt_h", "improvement_rmse_pct",
+               "improvement_bias_stability_pct", "improvement_drift_pct", "fit_time_s")
 COLORS = {"raw": "0.6", "oracle": "0.2", "truth": "tab:green"}
 METHOD_COLORS = ["tab:blue", "tab:orange", "tab:red", "tab:purple", "tab:brown", "tab:pink",
                  "tab:cyan", "tab:olive"]

@@ -35,6 +35,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import nnls
 
+from ._checks import _signal
+
 from .units import ARCSEC, DEG_RT_H, DPH, DPH_PER_H, DPH_RT_H
 
 __all__ = [
@@ -113,20 +115,7 @@ class AllanDeviation:
 
 
 def _check_rate(rate, name: str = "rate", min_len: int = 3) -> np.ndarray:
-    try:
-        arr = np.asarray(rate, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name}: cannot be read as a float array ({exc})") from None
-    if arr.ndim != 1:
-        raise ValueError(f"{name}: expected a 1-D array of samples, got shape {arr.shape}")
-    if arr.shape[0] < min_len:
-        raise ValueError(f"{name}: expected at least {min_len} samples, got {arr.shape[0]}")
-    bad = ~np.isfinite(arr)
-    if bad.any():
-        i = int(np.flatnonzero(bad)[0])
-        raise ValueError(f"{name}: non-finite value {arr[i]} at index {i}; expected finite "
-                         "samples (fill or cut gaps first)")
-    return arr
+    return _signal(name, rate, min_len)
 
 
 def _check_fs(fs) -> float:

@@ -345,7 +345,8 @@ def _paths(path) -> tuple[Path, Path]:
     return p.with_name(p.name + ".json"), p.with_name(p.name + ".npz")
 
 
-def _atomic_write(path: Path, data: bytes) -> None:
+def atomic_write_bytes(path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` through a temporary file in the same folder and a rename."""
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
@@ -386,8 +387,8 @@ def save_model(model: Compensator, path: str | os.PathLike) -> tuple[Path, Path]
         "arrays_sha256": hashlib.sha256(npz).hexdigest(),
     }
     jpath, npath = _paths(path)
-    _atomic_write(npath, npz)
-    _atomic_write(jpath, json.dumps(doc, indent=2, allow_nan=False).encode())
+    atomic_write_bytes(npath, npz)
+    atomic_write_bytes(jpath, json.dumps(doc, indent=2, allow_nan=False).encode())
     return jpath, npath
 
 

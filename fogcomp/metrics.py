@@ -17,6 +17,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
+from ._checks import _signal
 from scipy.signal import welch
 
 from .allan import identify_noise, oadev_details
@@ -47,21 +49,6 @@ ALLAN_MIN_SAMPLES = 512
 
 # ---------------------------------------------------------------------------------------------
 # Input checks
-def _signal(name: str, x, min_len: int = 1) -> np.ndarray:
-    try:
-        arr = np.asarray(x, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name}: cannot be read as a float array ({exc})") from None
-    if arr.ndim != 1:
-        raise ValueError(f"{name}: expected a 1-D array of samples, got shape {arr.shape}")
-    if arr.shape[0] < min_len:
-        raise ValueError(f"{name}: expected at least {min_len} samples, got {arr.shape[0]}")
-    bad = ~np.isfinite(arr)
-    if bad.any():
-        i = int(np.flatnonzero(bad)[0])
-        raise ValueError(f"{name}: non-finite value {arr[i]} at index {i}; expected finite "
-                         "samples")
-    return arr
 
 
 def _positive(name: str, v) -> float:

@@ -35,33 +35,15 @@ from __future__ import annotations
 
 import io
 import json
-import os
 import platform
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
+from fogcomp.base import atomic_write_bytes
+
 __all__ = ["atomic_write_bytes", "atomic_write_text", "write_run", "read_run", "versions",
            "write_manifest"]
-
-
-def atomic_write_bytes(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` through a temporary file and a rename."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".part")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
 
 
 def atomic_write_text(path: Path, text: str) -> None:

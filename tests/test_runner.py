@@ -8,7 +8,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import fogcomp
 from fogcomp.base import Compensator, DivergenceError, register
 from sim.protocol import load_plan
 from sim.scenario import RUNNER_SECTIONS, ScenarioError, load_scenario

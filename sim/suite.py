@@ -150,7 +150,16 @@ def claim_verdicts(plan, doc) -> list[str]:
 
 
 def summary_markdown(results: list[dict], plans: dict, out: Path, violations: list[str]) -> str:
+    import datetime
+
+    from .io import versions
+
+    v = versions()
     L = ["# fogbench suite: summary", "",
+         f"Written by `fogbench suite` (`make run`) on {datetime.date.today().isoformat()} with "
+         f"fogbench {v['fogbench']}, mujoco {v['mujoco']}, numpy {v['numpy']}; the scenario "
+         "reports it links (`<scenario>/report.md`, figures, `metrics.json`, `recording.rrd`) are "
+         "written beside it by the same command and are not kept in git.", "",
          "Each scenario's methods were fitted on some runs and scored on others against the "
          "simulation's truth (see each report for the protocol). Rows `raw` (the FOG output) and "
          "`oracle` (raw minus the true deterministic error terms) bracket what compensation can "

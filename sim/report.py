@@ -289,7 +289,7 @@ def _segment_table(res: ScenarioResult, protocol: str, run: str) -> str:
     item = next((it for it in res.scored if it.protocol == protocol and it.run == run), None)
     if item is None or run not in res.data:
         return ""
-    segs = thermal_segments(res.data[run], item.piece)
+    segs = thermal_segments(res.data[run])
     if not segs:
         return ""
     p = item.piece

@@ -116,7 +116,7 @@ def concat(pieces: list[Piece]) -> Piece:
                     for c in ("t", "raw", "truth", "g", "temp", "temp_rate", "oracle")})
 
 
-def thermal_segments(rd: RunData, piece: Piece) -> list[tuple[str, float, float]]:
+def thermal_segments(rd: RunData) -> list[tuple[str, float, float]]:
     """(label, start_s, end_s) of the thermal program's holds and ramps."""
     if rd.run.thermal is None or not rd.run.thermal.steps:
         return []

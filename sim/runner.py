@@ -160,7 +160,7 @@ def score(out: np.ndarray, piece: Piece, raw_ref: dict | None = None) -> dict:
         for k in ("arw_deg_rt_h", "bias_instability_dph", "rrw_dph_rt_h"):
             if ds.get(k) is not None:
                 m[k] = ds[k]
-    if dur >= 300.0:
+    if dur >= 300.0 and gaps.size == 0:  # of one contiguous record, not of stitched dwells
         m["bias_stability_100s_dph"] = M.bias_stability(out, piece.fs, 100.0) / DPH
     if raw_ref is not None:
         for key, name in (("std_dps", "improvement_std_pct"), ("rmse_dph", "improvement_rmse_pct"),

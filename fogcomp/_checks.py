@@ -1,6 +1,7 @@
-"""Input checks shared by fogcomp.allan and fogcomp.metrics."""
+"""Input checks shared across fogcomp."""
 
 import numpy as np
+import pywt
 
 
 def _signal(name: str, x, min_len: int = 1) -> np.ndarray:
@@ -18,3 +19,22 @@ def _signal(name: str, x, min_len: int = 1) -> np.ndarray:
         raise ValueError(f"{name}: non-finite value {arr[i]} at index {i}; expected finite "
                          "samples (fill or cut gaps first)")
     return arr
+
+
+def _wavelet(wavelet) -> pywt.Wavelet:
+    """A PyWavelets discrete wavelet from its name (or the wavelet itself)."""
+    if isinstance(wavelet, pywt.Wavelet):
+        return wavelet
+    try:
+        return pywt.Wavelet(wavelet)
+    except (ValueError, TypeError):
+        raise ValueError(f"wavelet: unknown discrete wavelet {wavelet!r}; choose one of "
+                         "pywt.wavelist(kind='discrete'), e.g. 'db6' (paper 000's)") from None
+
+
+def _mode(mode) -> str:
+    """A PyWavelets signal extension mode, checked."""
+    if mode not in pywt.Modes.modes:
+        raise ValueError(f"mode: unknown signal extension mode {mode!r}; choose one of "
+                         f"{pywt.Modes.modes}")
+    return mode

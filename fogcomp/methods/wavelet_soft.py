@@ -32,6 +32,7 @@ from typing import NamedTuple
 import numpy as np
 import pywt
 
+from .._checks import _mode, _wavelet
 from ..base import Compensator, GyroData, register
 
 __all__ = ["WaveletSoftThreshold", "SoftDenoiseResult", "soft_denoise", "mad_sigma"]
@@ -84,22 +85,11 @@ def mad_sigma(d: np.ndarray) -> float:
 
 
 def _check_wavelet(wavelet) -> pywt.Wavelet:
-    try:
-        w = pywt.Wavelet(wavelet)
-    except (ValueError, TypeError):
-        raise ValueError(f"wavelet: unknown discrete wavelet {wavelet!r}; choose one of "
-                         f"pywt.wavelist(kind='discrete'), e.g. 'db6', 'sym8'") from None
+    w = _wavelet(wavelet)
     if not w.orthogonal:
         raise ValueError(f"wavelet: {wavelet!r} is not orthogonal; the MAD noise estimate and "
                          "the universal threshold assume an orthogonal wavelet (db*, sym*, coif*)")
     return w
-
-
-def _check_mode(mode) -> str:
-    if mode not in pywt.Modes.modes:
-        raise ValueError(f"mode: unknown signal extension mode {mode!r}; choose one of "
-                         f"{pywt.Modes.modes}")
-    return mode
 
 
 def _check_threshold(threshold):
@@ -176,7 +166,7 @@ def soft_denoise(x, wavelet="db6", level=None, mode="symmetric",
     if x.ndim != 1 or x.shape[0] < 2:
         raise ValueError(f"x: expected a 1-D array of at least 2 samples, got shape {x.shape}")
     w = _check_wavelet(wavelet)
-    mode = _check_mode(mode)
+    mode = _mode(mode)
     threshold = _check_threshold(threshold)
     n = x.shape[0]
     lev = _resolve_level(level, n, w)
@@ -240,7 +230,7 @@ class WaveletSoftThreshold(Compensator):
 
     def _validate(self):
         _check_wavelet(self.wavelet)
-        _check_mode(self.mode)
+        _mode(self.mode)
         _check_threshold(self.threshold)
         if self.level is not None and (isinstance(self.level, bool)
                                        or not isinstance(self.level, numbers.Integral)

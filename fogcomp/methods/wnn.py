@@ -26,6 +26,7 @@ import pywt
 from numpy.lib.stride_tricks import sliding_window_view
 from scipy import signal
 
+from .._checks import _mode, _wavelet
 from ..base import Compensator, DivergenceError, GyroData, register
 
 __all__ = [
@@ -47,23 +48,6 @@ _PAPER = ("Paper 000 (fogbench seed 000_6140556fe3a47984): error compensation of
 
 # ---------------------------------------------------------------------------------------------
 # Trend extraction
-def _wavelet(wavelet) -> pywt.Wavelet:
-    if isinstance(wavelet, pywt.Wavelet):
-        return wavelet
-    try:
-        return pywt.Wavelet(wavelet)
-    except (ValueError, TypeError):
-        raise ValueError(f"wavelet: unknown discrete wavelet {wavelet!r}; choose one of "
-                         "pywt.wavelist(kind='discrete'), e.g. 'db6' (the paper's)") from None
-
-
-def _mode(mode) -> str:
-    if mode not in pywt.Modes.modes:
-        raise ValueError(f"mode: unknown signal extension mode {mode!r}; choose one of "
-                         f"{pywt.Modes.modes}")
-    return mode
-
-
 def max_level(n: int, wavelet="db6") -> int:
     """Deepest usable Mallat level for ``n`` samples: ``pywt.dwt_max_level``, at least 1."""
     return max(1, pywt.dwt_max_level(n, _wavelet(wavelet).dec_len))

@@ -1,21 +1,57 @@
 """The rig: one power-on of the FOG on the rate table in the thermal chamber.
 
-``simulate_run`` turns a scenario's run into truth (MuJoCo table + Earth rate), temperatures
-(chamber and coil) and the FOG's output with its error breakdown.
+Given typed configuration (:class:`Rig`, :class:`Run`) and the run's seed, ``simulate_run``
+returns truth (MuJoCo table + Earth rate), temperatures (chamber and coil) and the FOG's output
+with its error breakdown. Nothing here knows of scenario files, methods or reports.
 """
 
 from __future__ import annotations
 
+import tomllib
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
-from .fog import FogOutput, simulate_fog
-from .rate_table import Truth, simulate_truth
-from .scenario import Run, Scenario
+from .fog import FogOutput, FogParams, simulate_fog
+from .rate_table import TableConfig, Truth, simulate_truth
 from .thermal import Thermal, ThermalProgram, simulate_thermal
 
-__all__ = ["RunData", "simulate_run"]
+__all__ = ["Rig", "Run", "RunData", "simulate_run", "load_presets", "PRESETS_PATH"]
+
+PRESETS_PATH = Path(__file__).with_name("presets.toml")
+
+
+def load_presets(path: Path = PRESETS_PATH) -> dict[str, dict]:
+    """The FOG presets: name -> table of [fog] keys (datasheet units, as a scenario writes them)."""
+    with open(path, "rb") as f:
+        return tomllib.load(f)
+
+
+@dataclass(frozen=True)
+class Rig:
+    """The simulated rig: FOG output rate, table, FOG error model, sensitive axes, ambient."""
+
+    fs: float
+    table: TableConfig
+    fog: FogParams
+    axes: tuple[str, ...]
+    ambient_c: float = 20.0
+
+
+@dataclass(frozen=True)
+class Run:
+    """One power-on of the FOG: its motion program, thermal program and seed."""
+
+    name: str
+    seed: int
+    motion: tuple
+    thermal: ThermalProgram | None
+    tilt0: float = 0.0
+
+    @property
+    def duration(self) -> float:
+        return float(sum(s.duration for s in self.motion))
 
 
 @dataclass(frozen=True)
@@ -38,15 +74,13 @@ class RunData:
         return self.truth.rate[:, "xyz".index(self.axes[j])]
 
 
-def simulate_run(scenario: Scenario, run: Run, progress=None) -> RunData:
-    """Simulate one run of ``scenario``. ``progress(fraction)`` is called as the table runs."""
-    truth = simulate_truth(run.motion, scenario.fs, scenario.table, tilt0=run.tilt0,
-                           progress=progress)
-    program = run.thermal or ThermalProgram(start=scenario.ambient_c, steps=(),
+def simulate_run(rig: Rig, run: Run, progress=None) -> RunData:
+    """Simulate one power-on. ``progress(fraction)`` is called as the table runs."""
+    truth = simulate_truth(run.motion, rig.fs, rig.table, tilt0=run.tilt0, progress=progress)
+    program = run.thermal or ThermalProgram(start=rig.ambient_c, steps=(),
                                             coil_time_constant=0.0)
     thermal = simulate_thermal(program, truth.t)
-    fog = simulate_fog(scenario.fog, scenario.fs, truth.rate, truth.specific_force,
-                       temp=thermal.coil, temp_rate=thermal.coil_rate, axes=scenario.axes,
+    fog = simulate_fog(rig.fog, rig.fs, truth.rate, truth.specific_force,
+                       temp=thermal.coil, temp_rate=thermal.coil_rate, axes=rig.axes,
                        seed=run.seed)
-    return RunData(run=run, fs=scenario.fs, truth=truth, thermal=thermal, fog=fog,
-                   axes=scenario.axes)
+    return RunData(run=run, fs=rig.fs, truth=truth, thermal=thermal, fog=fog, axes=rig.axes)

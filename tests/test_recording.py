@@ -1,4 +1,4 @@
-"""The Rerun recording of a run (sim/recording.py), read back with rerun's own .rrd reader.
+"""The Rerun recording of a run (fogbench/recording.py), read back with rerun's own .rrd reader.
 
 rerun-sdk 0.41 reads a file with ``rerun.chunk.RrdReader(path)``: ``recordings()`` /
 ``blueprints()`` list the stores, ``stream()`` yields the chunks of the first recording, and each
@@ -19,8 +19,8 @@ from rerun.chunk import RrdReader
 import fogcomp
 from fogcomp.base import Compensator, register
 from fogcomp.units import DPH, DPS
-from sim import recording as R
-from sim.runner import run_scenario
+from fogbench import recording as R
+from fogbench.runner import run_scenario
 
 TINY = """
 [scenario]

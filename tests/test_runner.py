@@ -9,9 +9,8 @@ import numpy as np
 import pytest
 
 from fogcomp.base import Compensator, DivergenceError, register
-from sim.protocol import load_plan
-from sim.scenario import RUNNER_SECTIONS, ScenarioError, load_scenario
-from sim.suite import run_suite
+from fogbench.scenario import RUNNER_SECTIONS, ScenarioError, load_plan, load_scenario
+from fogbench.suite import run_suite
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -167,7 +166,7 @@ def test_loader_refuses_unknown_methods_params_and_bad_bounds(tmp_path):
 def test_run_writes_metrics_report_and_figures_from_a_clean_directory(tmp_path):
     p = scenario(tmp_path, method3="test_always_diverges", label3="diverges")
     out = tmp_path / "clean" / "run"
-    r = subprocess.run([sys.executable, "-m", "sim.cli", "run", str(p), "--out", str(out),
+    r = subprocess.run([sys.executable, "-m", "fogbench.cli", "run", str(p), "--out", str(out),
                         "--no-recording", "--quiet"], capture_output=True, text=True, cwd=ROOT,
                        env={**__import__("os").environ,
                             "PYTHONPATH": f"{ROOT}:{Path(__file__).parent}"})
@@ -175,8 +174,8 @@ def test_run_writes_metrics_report_and_figures_from_a_clean_directory(tmp_path):
     # refuses the scenario: run it in-process instead
     assert r.returncode == 2 and "unknown method 'test_always_diverges'" in r.stderr
     assert not out.exists()
-    from sim.report import write_run_dir
-    from sim.runner import run_scenario
+    from fogbench.report import write_run_dir
+    from fogbench.runner import run_scenario
 
     res = run_scenario(p)
     write_run_dir(res, out, recording=False)
@@ -201,7 +200,7 @@ def test_run_writes_metrics_report_and_figures_from_a_clean_directory(tmp_path):
 
 
 def test_scored_samples_are_never_the_fitted_ones(tmp_path):
-    from sim.runner import run_scenario
+    from fogbench.runner import run_scenario
 
     res = run_scenario(scenario(tmp_path))
     (item,) = res.scored
@@ -235,7 +234,7 @@ def test_suite_check_fails_on_a_broken_method_and_passes_otherwise(tmp_path, cap
 
 def test_ci_subset_of_the_bundled_suite_holds_its_bounds(tmp_path):
     """What `make test` runs of the real suite: the scenarios marked ci = true, checked."""
-    r = subprocess.run([sys.executable, "-m", "sim.cli", "suite", "--ci", "--check",
+    r = subprocess.run([sys.executable, "-m", "fogbench.cli", "suite", "--ci", "--check",
                         "--no-recording", "--quiet", "--out", str(tmp_path / "reports")],
                        capture_output=True, text=True, cwd=ROOT)
     assert r.returncode == 0, r.stderr[-3000:]
@@ -244,8 +243,8 @@ def test_ci_subset_of_the_bundled_suite_holds_its_bounds(tmp_path):
 
 
 def test_claim_verdicts_state_agreement_with_the_numbers():
-    from sim.protocol import Claim, Plan
-    from sim.suite import claim_verdicts
+    from fogbench.scenario import Claim, Plan
+    from fogbench.suite import claim_verdicts
 
     doc = {"protocols": {"p": {"in_sample": False, "runs": {
         "r1": {"raw": {"x_dph": 1.0}, "m": {"x_dph": 0.25}},

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from fogcomp import units as U
-from sim.scenario import ScenarioError, load_scenario
+from fogbench.scenario import ScenarioError, load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -58,8 +58,7 @@ def test_good_scenario_loads_in_si(tmp_path):
 
 @pytest.mark.parametrize("path", sorted((ROOT / "scenarios").glob("*.toml")), ids=lambda p: p.name)
 def test_bundled_scenarios_load(path):
-    from sim.protocol import load_plan
-    from sim.scenario import RUNNER_SECTIONS
+    from fogbench.scenario import RUNNER_SECTIONS, load_plan
 
     sc = load_scenario(path, extra_sections=RUNNER_SECTIONS)
     load_plan(sc)
@@ -120,7 +119,7 @@ def test_missing_file_is_a_clear_error(tmp_path):
 
 
 def run_cli(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "sim.cli", *args], capture_output=True,
+    return subprocess.run([sys.executable, "-m", "fogbench.cli", *args], capture_output=True,
                           text=True, cwd=cwd or ROOT)
 
 

@@ -23,11 +23,12 @@ import fogcomp
 from fogcomp import GyroData, metrics as M
 from fogcomp.units import DPH, DPS
 
+from sim.rig import RunData, simulate_run
+from sim.thermal import ThermalHold
+
 from .io import atomic_write_text, versions
-from .protocol import Plan, Protocol, Selection, expand, load_plan, select_indices
-from .rig import RunData, simulate_run
-from .scenario import RUNNER_SECTIONS, Scenario, load_scenario
-from .thermal import ThermalHold
+from .scenario import (RUNNER_SECTIONS, Plan, Protocol, Scenario, Selection, expand, load_plan,
+                       load_scenario, select_indices)
 
 __all__ = ["run_scenario", "ScenarioResult", "Scored"]
 
@@ -214,7 +215,7 @@ def run_scenario(path, progress=None, methods: list[str] | None = None) -> Scena
     data = {}
     for i, run in enumerate(sc.runs):
         say(f"simulate {run.name} ({i + 1}/{len(sc.runs)}, {run.duration:g} s)")
-        data[run.name] = simulate_run(sc, run)
+        data[run.name] = simulate_run(sc.rig, run)
 
     scored: list[Scored] = []
     fits: dict = {}

@@ -10,9 +10,8 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 from .io import atomic_write_text
-from .protocol import load_plan
-from .report import fmt
-from .scenario import RUNNER_SECTIONS, ScenarioError, load_scenario
+from .fmt import fmt
+from .scenario import RUNNER_SECTIONS, ScenarioError, load_plan, load_scenario
 
 __all__ = ["run_suite", "check_bounds", "summary_markdown"]
 

@@ -76,6 +76,8 @@ import numpy as np
 
 from fogcomp.units import DPH, DPS
 
+from .fmt import KEY_METRICS, fmt, md_table
+
 __all__ = ["write_recording", "view", "decimation", "MAX_SERIES_POINTS", "MAX_POSE_POINTS",
            "TIMELINE", "TAU_TIMELINE", "FREQ_TIMELINE", "APPLICATION_ID"]
 
@@ -302,15 +304,7 @@ def _log_piece(w: _Writer, key: str, it, colors) -> int:
     return k
 
 
-def _md_table(header: list[str], rows: list[list[str]]) -> str:
-    out = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    out += ["| " + " | ".join(r) + " |" for r in rows]
-    return "\n".join(out)
-
-
 def _metrics_text(res, decim: dict, piece_decim: list[int]) -> str:
-    from .report import KEY_METRICS, fmt
-
     sc, plan = res.scenario, res.plan
     L = [f"# {sc.name}", "", sc.description, "",
          f"Axis `{plan.axis}`, {sc.fs:g} Hz, FOG preset `{sc.fog_preset}`. "
@@ -321,11 +315,11 @@ def _metrics_text(res, decim: dict, piece_decim: list[int]) -> str:
          f"Series are decimated for display only (every k-th sample; at most "
          f"{MAX_SERIES_POINTS:,} points per series per run or piece, {MAX_POSE_POINTS:,} 3-D "
          "poses per run).", "",
-         _md_table(["run", "samples", "series decimation k", "3-D pose decimation k"],
+         md_table(["run", "samples", "series decimation k", "3-D pose decimation k"],
                    [[name, str(rd.n), str(decim[name][0]), str(decim[name][1])]
                     for name, rd in res.data.items()]), ""]
     keys = _piece_keys(res)
-    L += [_md_table(["protocol (entity name)", "run", "piece samples", "fs, Hz", "decimation k"],
+    L += [md_table(["protocol (entity name)", "run", "piece samples", "fs, Hz", "decimation k"],
                     [[key, it.run, str(it.piece.t.size), f"{it.piece.fs:g}", str(k)]
                      for key, it, k in zip(keys, res.scored, piece_decim)]), ""]
     failed = []
@@ -343,7 +337,7 @@ def _metrics_text(res, decim: dict, piece_decim: list[int]) -> str:
                 failed.append((key, it.run, lab, m.get("error", "")))
                 continue
             rows.append([lab] + [fmt(m.get(x), x) for x in metrics] + ["ok"])
-        L += [_md_table(["method"] + metrics + ["status"], rows), ""]
+        L += [md_table(["method"] + metrics + ["status"], rows), ""]
     if failed:
         L += ["## Failed methods", "",
               "These have no `compensated` or `error` series in this recording:", ""]

@@ -23,16 +23,13 @@ from fogcomp import metrics as M  # noqa: E402
 from fogcomp.allan import oadev  # noqa: E402
 from fogcomp.units import DPH, DPS  # noqa: E402
 
+from .fmt import KEY_METRICS, fmt, md_table  # noqa: E402
 from .io import atomic_write_bytes, atomic_write_text, run_arrays  # noqa: E402
 from .runner import ScenarioResult, TERM_NAMES, thermal_segments, write_metrics  # noqa: E402
 
-__all__ = ["write_run_dir", "KEY_METRICS", "fmt"]
+__all__ = ["write_run_dir"]
 
 MAX_PLOT_POINTS = 4000
-KEY_METRICS = ("std_dps", "rmse_dph", "drift_rms_dph", "bias_stability_100s_dph",
-               "angle_error_final_deg", "coef_rms_error_dph", "arw_deg_rt_h",
-               "bias_instability_dph", "rrw_dph_rt_h", "improvement_rmse_pct",
-               "improvement_bias_stability_pct", "improvement_drift_pct", "fit_time_s")
 COLORS = {"raw": "0.6", "oracle": "0.2", "truth": "tab:green"}
 METHOD_COLORS = ["tab:blue", "tab:orange", "tab:red", "tab:purple", "tab:brown", "tab:pink",
                  "tab:cyan", "tab:olive"]
@@ -43,23 +40,6 @@ def _color(label: str, labels: list[str]):
         return COLORS[label]
     others = [x for x in labels if x not in COLORS]
     return METHOD_COLORS[others.index(label) % len(METHOD_COLORS)] if label in others else None
-
-
-def fmt(v, metric: str = "") -> str:
-    if v is None:
-        return "–"
-    if isinstance(v, str):
-        return v
-    if not isinstance(v, (int, float)) or not math.isfinite(v):
-        return "–"
-    if metric.endswith("_pct"):
-        return f"{v:.1f}"
-    if metric.endswith("time_s"):
-        return f"{v:.3g}"
-    a = abs(v)
-    if a != 0 and (a < 1e-3 or a >= 1e5):
-        return f"{v:.3e}"
-    return f"{v:.4g}"
 
 
 def _save(fig, path: Path):
@@ -198,12 +178,6 @@ def fig_coefficients(res: ScenarioResult, protocol: str, path: Path) -> bool:
     return True
 
 
-def _table(header: list[str], rows: list[list[str]]) -> str:
-    out = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    out += ["| " + " | ".join(r) + " |" for r in rows]
-    return "\n".join(out)
-
-
 def _paper_value(plan, method, metric, run, segment=None):
     for pv in plan.paper:
         if pv.method == method and pv.metric == metric and pv.run in (None, run) and \
@@ -227,7 +201,7 @@ def render_report(res: ScenarioResult, fig_names: dict, decimation: dict) -> str
           "percent improvement over raw (positive is better), `_s` seconds.", ""]
     runs_tab = [[name, str(r["seed"]), str(r["samples"]), f"{r['duration_s']:g}",
                  f"{r['settled_hold_fast_path_s']:g}"] for name, r in doc["runs"].items()]
-    L += ["## Runs (power-ons)", "", _table(["run", "seed", "samples", "duration, s",
+    L += ["## Runs (power-ons)", "", md_table(["run", "seed", "samples", "duration, s",
                                             "settled-hold fast path, s"], runs_tab), ""]
     for prot in plan.protocols:
         pd = doc["protocols"][prot.name]
@@ -259,7 +233,7 @@ def render_report(res: ScenarioResult, fig_names: dict, decimation: dict) -> str
                         c += f" (ref: {fmt(pv.value, met)})"
                     cells.append(c)
                 rows.append([lab] + cells + ["ok"])
-            L += [f"### {run}", "", _table(header, rows), ""]
+            L += [f"### {run}", "", md_table(header, rows), ""]
             refs = sorted({pv.source for pv in plan.paper if pv.run in (None, run)
                            and pv.segment is None})
             if refs:
@@ -313,7 +287,7 @@ def _segment_table(res: ScenarioResult, protocol: str, run: str) -> str:
         return ""
     return ("Bias stability B_s per thermal segment, deg/h (paper 002 eq. 5 on 100 s means; "
             "paper's Table 1/2 value in brackets where given):\n\n"
-            + _table(["segment"] + labels, rows))
+            + md_table(["segment"] + labels, rows))
 
 
 def _coef_table(res: ScenarioResult, protocol: str) -> str:
@@ -339,7 +313,7 @@ def _coef_table(res: ScenarioResult, protocol: str) -> str:
                              else (fmt(s) if s is not None else "–")])
             out.append(f"**{lab}, {run}** (rank {ident.get('rank', '?')} of "
                        f"{ident.get('n_terms', '?')}, condition {fmt(ident.get('condition'))}):\n\n"
-                       + _table(["coef", "true", "estimated", "std error"], rows))
+                       + md_table(["coef", "true", "estimated", "std error"], rows))
             if ident.get("summary"):
                 out.append("\n".join(f"- {s}" for s in ident["summary"]))
             break  # the first power-on; all are in metrics.json

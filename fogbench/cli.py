@@ -35,8 +35,9 @@ class Progress:
 
 
 def _cmd_simulate(args) -> int:
+    from sim.rig import simulate_run
+
     from .io import write_manifest, write_run
-    from .rig import simulate_run
     from .scenario import RUNNER_SECTIONS, load_scenario
 
     scenario = load_scenario(args.scenario, extra_sections=RUNNER_SECTIONS)
@@ -45,8 +46,8 @@ def _cmd_simulate(args) -> int:
     for run in scenario.runs:
         if args.run and run.name not in args.run:
             continue
-        rd = simulate_run(scenario, run, progress=Progress(f"{scenario.name}/{run.name}",
-                                                           args.quiet))
+        rd = simulate_run(scenario.rig, run,
+                          progress=Progress(f"{scenario.name}/{run.name}", args.quiet))
         write_run(out, scenario, rd)
         names.append(run.name)
     if args.run:

@@ -18,9 +18,9 @@ import mujoco
 import numpy as np
 from mujoco import rollout
 
-from .fog import simulate_fog
-from .motion import ConstantRate, SineRate
-from .rate_table import TableConfig, load_model, simulate_truth, substeps_for
+from sim.fog import simulate_fog
+from sim.motion import ConstantRate, SineRate
+from sim.rate_table import TableConfig, load_model, simulate_truth, substeps_for
 
 
 def _tactical_params():

@@ -37,35 +37,52 @@ class Progress:
 def _cmd_simulate(args) -> int:
     from sim.rig import simulate_run
 
-    from .io import write_manifest, write_run
-    from .scenario import RUNNER_SECTIONS, load_scenario
+    from .io import versions, write_manifest, write_run
+    from .outdir import check_out_dir, new_part_dir, replace_dir
+    from .scenario import RUNNER_SECTIONS, load_plan, load_scenario
 
     scenario = load_scenario(args.scenario, extra_sections=RUNNER_SECTIONS)
-    out = Path(args.out)
-    names = []
-    for run in scenario.runs:
-        if args.run and run.name not in args.run:
-            continue
-        rd = simulate_run(scenario.rig, run,
-                          progress=Progress(f"{scenario.name}/{run.name}", args.quiet))
-        write_run(out, scenario, rd)
-        names.append(run.name)
+    if scenario.extra:
+        load_plan(scenario)  # the whole file is validated, not only the part simulated
     if args.run:
-        missing = sorted(set(args.run) - set(names))
+        missing = sorted(set(args.run) - {r.name for r in scenario.runs})
         if missing:
-            raise SystemExit(f"fogbench: {args.scenario}: no run named {missing}; runs: "
+            raise ValueError(f"--run: {args.scenario}: no run named {missing}; runs: "
                              f"{[r.name for r in scenario.runs]}")
-    write_manifest(out, scenario, names)
+    out = check_out_dir(args.out, "simulation")
+    tmp = new_part_dir(out, "simulation", {"scenario": scenario.name,
+                                           "scenario_file": str(scenario.path),
+                                           "fogbench": versions().get("fogbench")})
+    try:
+        names = []
+        for run in scenario.runs:
+            if args.run and run.name not in args.run:
+                continue
+            rd = simulate_run(scenario.rig, run,
+                              progress=Progress(f"{scenario.name}/{run.name}", args.quiet))
+            write_run(tmp, scenario, rd)
+            names.append(run.name)
+        write_manifest(tmp, scenario, names)
+        replace_dir(tmp, out, "simulation")
+    except BaseException:
+        import shutil
+
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
     print(f"wrote {len(names)} run(s) of {scenario.name} to {out}")
     return 0
 
 
 def _cmd_run(args) -> int:
+    from .outdir import check_out_dir
     from .report import write_run_dir
     from .runner import run_scenario
+    from .scenario import RUNNER_SECTIONS, load_plan, load_scenario
 
-    name = Path(args.scenario).stem
-    out = Path(args.out) if args.out else Path("reports") / name
+    sc = load_scenario(args.scenario, extra_sections=RUNNER_SECTIONS)  # refuse bad input first
+    load_plan(sc)
+    name = sc.name
+    out = check_out_dir(args.out if args.out is not None else Path("reports") / name, "run")
     say = (lambda msg: None) if args.quiet else (
         lambda msg: print(f"[{name}] {msg}", file=sys.stderr, flush=True))
     res = run_scenario(args.scenario, progress=say, methods=args.method)
@@ -74,6 +91,18 @@ def _cmd_run(args) -> int:
     print(f"{name}: wrote {out}/report.md, metrics.json"
           + ("" if args.no_recording else ", recording.rrd")
           + (f"; FAILED methods: {', '.join(failed)}" if failed else ""))
+    return 0
+
+
+def _cmd_check(args) -> int:
+    from .scenario import RUNNER_SECTIONS, load_plan, load_scenario
+
+    for path in args.scenario:
+        sc = load_scenario(path, extra_sections=RUNNER_SECTIONS)
+        plan = load_plan(sc)
+        n = sum(r.duration for r in sc.runs) * sc.fs
+        print(f"{path}: ok: scenario {sc.name!r}, {len(sc.runs)} run(s), {n:.0f} samples, "
+              f"{len(plan.protocols)} protocol(s), {len(plan.methods)} method(s)")
     return 0
 
 
@@ -109,31 +138,60 @@ def _cmd_bench(args) -> int:
 
 
 
+def _number(kind, lo, lo_open=False, hi=None):
+    """An argparse type: a finite number of ``kind`` in range; the message names the flag."""
+    import math
+
+    def parse(text: str):
+        try:
+            v = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"expected {'an integer' if kind is int else 'a number'}, got {text!r}") from None
+        if kind is float and not math.isfinite(v):
+            raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+        if (v <= lo) if lo_open else (v < lo):
+            raise argparse.ArgumentTypeError(f"expected a value {'>' if lo_open else '>='} "
+                                             f"{lo:g}, got {text!r}")
+        if hi is not None and v > hi:
+            raise argparse.ArgumentTypeError(f"expected a value <= {hi:g}, got {text!r}")
+        return v
+
+    return parse
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="fogbench", description="FOG error-compensation testbench")
     sub = p.add_subparsers(dest="command", required=True)
 
     s = sub.add_parser("simulate", help="simulate a scenario's runs and write their data")
     s.add_argument("scenario", help="scenario file (TOML)")
-    s.add_argument("--out", required=True, help="output directory")
+    s.add_argument("--out", required=True,
+                   help="output directory (new, empty, or one that fogbench simulate wrote)")
     s.add_argument("--run", action="append", help="only this run (repeatable)")
     s.add_argument("--quiet", action="store_true", help="no progress on stderr")
     s.set_defaults(func=_cmd_simulate)
 
     r = sub.add_parser("run", help="simulate a scenario, fit and score its methods, write a report")
     r.add_argument("scenario", help="scenario file (TOML)")
-    r.add_argument("--out", help="run directory (default reports/<scenario name>)")
+    r.add_argument("--out", help="run directory (default reports/<scenario name>); new, empty, "
+                   "or one that fogbench run wrote: nothing else is ever replaced")
     r.add_argument("--method", action="append", help="only this method label (repeatable)")
     r.add_argument("--no-recording", action="store_true", help="do not write recording.rrd")
     r.add_argument("--quiet", action="store_true", help="no progress on stderr")
     r.set_defaults(func=_cmd_run)
+
+    c = sub.add_parser("check", help="validate scenario files (nothing is simulated or written)")
+    c.add_argument("scenario", nargs="+", help="scenario file(s) (TOML)")
+    c.set_defaults(func=_cmd_check)
 
     u = sub.add_parser("suite", help="run every scenario and write reports/README.md")
     u.add_argument("--scenarios", default="scenarios", help="scenario folder (default scenarios)")
     u.add_argument("--out", default="reports", help="reports folder (default reports)")
     u.add_argument("--check", action="store_true",
                    help="exit 1 when a metric leaves the bounds its scenario file declares")
-    u.add_argument("--jobs", type=int, default=2, help="parallel processes (default 2)")
+    u.add_argument("--jobs", type=_number(int, 1, hi=256), default=2,
+                   help="parallel processes (default 2)")
     u.add_argument("--ci", action="store_true",
                    help="only the scenarios marked ci = true (the CI subset)")
     u.add_argument("--scenario", action="append", help="only this scenario name (repeatable)")
@@ -146,30 +204,34 @@ def build_parser() -> argparse.ArgumentParser:
     v.set_defaults(func=_cmd_view)
 
     b = sub.add_parser("bench", help="print throughput of the rig and the error model")
-    b.add_argument("--seconds", type=float, default=600.0,
-                   help="simulated seconds per measurement (default 600)")
-    b.add_argument("--repeats", type=int, default=5, help="repeats; medians are quoted")
+    b.add_argument("--seconds", type=_number(float, 1.0, hi=86400.0), default=600.0,
+                   help="simulated seconds per measurement, 1 to 86400 (default 600)")
+    b.add_argument("--repeats", type=_number(int, 1, hi=1000), default=5,
+                   help="repeats; medians are quoted (default 5)")
     b.set_defaults(func=_cmd_bench)
     return p
 
 
 def main(argv=None) -> int:
+    from .outdir import Terminated, install_sigterm
     from .scenario import ScenarioError
 
     parser = build_parser()
     args = parser.parse_args(argv)
+    install_sigterm()
     try:
         return args.func(args)
-    except ScenarioError as exc:
-        print(f"fogbench: error: {exc}", file=sys.stderr)
-        return 2
-    except (ValueError, FileNotFoundError) as exc:
+    except (ScenarioError, ValueError, FileNotFoundError) as exc:
         print(f"fogbench: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("fogbench: interrupted; files already complete are kept, none is half-written",
               file=sys.stderr)
         return 130
+    except Terminated:
+        print("fogbench: terminated (SIGTERM); files already complete are kept, none is "
+              "half-written", file=sys.stderr)
+        return 143
 
 
 if __name__ == "__main__":  # pragma: no cover

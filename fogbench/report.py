@@ -8,9 +8,7 @@ from __future__ import annotations
 
 import io
 import math
-import os
 import shutil
-import tempfile
 from pathlib import Path
 
 import matplotlib
@@ -24,7 +22,8 @@ from fogcomp.allan import oadev  # noqa: E402
 from fogcomp.units import DPH, DPS  # noqa: E402
 
 from .fmt import KEY_METRICS, fmt, md_table  # noqa: E402
-from .io import atomic_write_bytes, atomic_write_text, run_arrays  # noqa: E402
+from .io import atomic_write_bytes, atomic_write_text, run_arrays, versions  # noqa: E402
+from .outdir import check_out_dir, new_part_dir, replace_dir  # noqa: E402
 from .runner import ScenarioResult, TERM_NAMES, thermal_segments, write_metrics  # noqa: E402
 
 __all__ = ["write_run_dir"]
@@ -346,40 +345,54 @@ def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_d
                   ) -> Path:
     """Write metrics.json, report.md, figures, data (and recording.rrd) into ``out``.
 
-    Everything is written into a temporary sibling directory, which then replaces ``out``: an
-    interrupted run leaves the previous complete directory, never a half-written one.
+    Everything is written into a hidden temporary sibling (its marker file first), which then
+    replaces ``out``: an interrupted run leaves the previous complete directory, never a
+    half-written one, and only an empty directory or a run directory of ours is ever replaced
+    (``fogbench.outdir``). A figure that cannot be drawn is left out with a note in the report.
     """
-    out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}.", suffix=".part"))
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o777 & ~umask)  # mkdtemp makes it private; the result is an ordinary folder
+    out = check_out_dir(out, "run")
+    tmp = new_part_dir(out, "run", {"scenario": res.scenario.name,
+                                    "scenario_file": str(res.scenario.path),
+                                    "fogbench": versions().get("fogbench")})
     try:
-        fig_names, decim = {}, {}
+        fig_names, decim, notes = {}, {}, []
+
+        def figure(what: str, fn, *args):
+            """Draw one figure; a figure that cannot be drawn is noted, never fatal."""
+            try:
+                return fn(*args)
+            except Exception as exc:  # noqa: BLE001 - the run's numbers matter more
+                plt.close("all")
+                notes.append(f"figure {what} left out: {type(exc).__name__}: {exc}")
+                return None
+
         (tmp / "figures").mkdir()
-        seen_runs = set()
         for it in res.scored:
             base = f"{it.protocol}__{it.run}"
             key = (it.protocol, it.run)
             if key in decim:
                 continue
-            decim[key] = fig_timeseries(it, tmp / "figures" / f"{base}__timeseries.png")
-            fig_names[(it.protocol, it.run, "timeseries")] = f"figures/{base}__timeseries.png"
-            fig_psd(it, tmp / "figures" / f"{base}__psd.png")
-            fig_names[(it.protocol, it.run, "psd")] = f"figures/{base}__psd.png"
-            if fig_allan(it, tmp / "figures" / f"{base}__allan.png"):
+            decim[key] = figure(f"{base} time series", fig_timeseries, it,
+                                tmp / "figures" / f"{base}__timeseries.png") or 1
+            figure(f"{base} PSD", fig_psd, it, tmp / "figures" / f"{base}__psd.png")
+            for kind in ("timeseries", "psd"):
+                if (tmp / "figures" / f"{base}__{kind}.png").exists():
+                    fig_names[(it.protocol, it.run, kind)] = f"figures/{base}__{kind}.png"
+            if figure(f"{base} Allan", fig_allan, it, tmp / "figures" / f"{base}__allan.png"):
                 fig_names[(it.protocol, it.run, "allan")] = f"figures/{base}__allan.png"
-            seen_runs.add(it.run)
         for prot in res.plan.protocols:
-            if fig_coefficients(res, prot.name, tmp / "figures" / f"{prot.name}__coefficients.png"):
+            if figure(f"{prot.name} coefficients", fig_coefficients, res, prot.name,
+                      tmp / "figures" / f"{prot.name}__coefficients.png"):
                 fig_names[(prot.name, None, "coefficients")] = \
                     f"figures/{prot.name}__coefficients.png"
         first = next(iter(res.data))
-        if fig_thermal(res, first, tmp / "figures" / "thermal.png"):
+        if figure("thermal", fig_thermal, res, first, tmp / "figures" / "thermal.png"):
             fig_names[("thermal",)] = "figures/thermal.png"
         write_metrics(tmp / "metrics.json", res.metrics)
-        atomic_write_text(tmp / "report.md", render_report(res, fig_names, decim))
+        text = render_report(res, fig_names, decim)
+        if notes:
+            text += "\n## Left out\n\n" + "\n".join(f"- {n}" for n in notes) + "\n"
+        atomic_write_text(tmp / "report.md", text)
         atomic_write_text(tmp / "scenario.toml", res.scenario.text)
         if save_data:
             (tmp / "data").mkdir()
@@ -397,15 +410,7 @@ def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_d
             from .recording import write_recording
 
             write_recording(res, tmp / "recording.rrd")
-        if out.exists():
-            old = out.with_name(f".{out.name}.old")
-            if old.exists():
-                shutil.rmtree(old)
-            os.replace(out, old)
-            os.replace(tmp, out)
-            shutil.rmtree(old)
-        else:
-            os.replace(tmp, out)
+        replace_dir(tmp, out, "run")
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise

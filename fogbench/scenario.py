@@ -9,6 +9,7 @@ The format is documented in the README ("Scenario files").
 from __future__ import annotations
 
 import math
+import re
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -33,6 +34,26 @@ RUNNER_SECTIONS = ("compensation", "protocols", "methods", "bounds", "paper", "c
 
 class ScenarioError(ValueError):
     """A scenario file is malformed; the message names the file, the key and what was expected."""
+
+
+# Names that become parts of paths (scenario, run, protocol, method label): a safe character set.
+_NAME_RE = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
+NAME_RULE = ("1 to 64 characters from A-Z a-z 0-9 _ . -, starting with a letter or digit "
+             "(it becomes part of file and folder names)")
+
+
+def name_problem(name: str) -> str | None:
+    """Why ``name`` cannot be used as a path component, or None when it can."""
+    if not _NAME_RE.fullmatch(name) or name.endswith("."):
+        return f"expected {NAME_RULE}, got {name!r}"
+    return None
+
+
+# What a scenario may ask of memory: the runner holds every run's truth, temperatures, FOG output
+# and error terms (float64) at once, and scoring copies the selected samples a few times.
+MAX_SAMPLES = 50_000_000          # all runs together, at sample_rate_hz
+BYTES_PER_SAMPLE = 8 * 70         # truth and table state (~45 columns) + terms and output per axis
+MAX_ESTIMATED_BYTES = 8 * 2**30
 
 
 class _Table:
@@ -85,8 +106,22 @@ class _Table:
                     isinstance(x, (int, float)) and not isinstance(x, bool) for x in v):
                 raise self.err(key, f"expected a non-empty list of numbers, got {v!r}")
             v = [float(x) for x in v]
+            for i, x in enumerate(v):
+                if not math.isfinite(x):
+                    raise self.err(key, f"expected finite numbers, got {x!r} at index {i}")
+                self._range(key, x, lo, hi, lo_open)
+        elif kind == "ints":
+            if not isinstance(v, list) or not all(
+                    isinstance(x, int) and not isinstance(x, bool) for x in v):
+                raise self.err(key, f"expected a list of integers, got {v!r}")
             for x in v:
                 self._range(key, x, lo, hi, lo_open)
+        elif kind == "name":
+            if not isinstance(v, str):
+                raise self.err(key, f"expected a string, got {v!r}")
+            msg = name_problem(v)
+            if msg:
+                raise self.err(key, msg)
         elif kind == "strs":
             if not isinstance(v, list) or not all(isinstance(x, str) for x in v):
                 raise self.err(key, f"expected a list of strings, got {v!r}")
@@ -122,6 +157,7 @@ class _Table:
 def _describe(kind, lo, hi, choices, lo_open=False):
     what = {"float": "a number", "int": "an integer", "str": "a string", "bool": "true/false",
             "floats": "a list of numbers", "strs": "a list of strings", "table": "a table",
+            "ints": "a list of integers", "name": f"a name ({NAME_RULE})",
             "tables": "an array of tables"}.get(kind, kind)
     if choices:
         what += f" from {sorted(choices)}"
@@ -164,27 +200,31 @@ class Scenario:
         raise KeyError(f"{self.path}: no run named {name!r}; runs: {[r.name for r in self.runs]}")
 
 
-# Scenario [fog] keys: key -> (FogParams field, factor to SI, kind, lo)
+# Scenario [fog] keys: key -> (FogParams field, factor to SI, kind, lo, hi). The limits are
+# physical: beyond them no gyro (MEMS to strategic grade) operates, so a value there is a typo.
 _FOG_KEYS = {
-    "bias_dph": ("bias", U.DPH, "float", None),
-    "switch_on_bias_dph": ("switch_on_bias_sigma", U.DPH, "float", 0.0),
-    "arw_deg_rt_h": ("arw", U.DEG_RT_H, "float", 0.0),
-    "bias_instability_dph": ("bias_instability", U.DPH, "float", 0.0),
-    "rrw_dph_rt_h": ("rrw", U.DPH_RT_H, "float", 0.0),
-    "rate_ramp_dph_per_h": ("rate_ramp", U.DPH_PER_H, "float", None),
-    "quantization_arcsec": ("quantization", U.ARCSEC, "float", 0.0),
-    "scale_factor_ppm": ("scale_factor", U.PPM, "float", None),
-    "sf_nonlinearity_ppm": ("sf_nonlinearity", U.PPM, "float", None),
-    "sf_temp_coeff_ppm_per_c": ("sf_temp_coeff", U.PPM, "float", None),
-    "full_scale_dps": ("full_scale", U.DPS, "float", 0.0),
-    "g_sens_switch_on_dph_per_g": ("g_sens_switch_on_sigma", U.DPH, "float", 0.0),
-    "g2_sens_switch_on_dph_per_g2": ("g2_sens_switch_on_sigma", U.DPH, "float", 0.0),
-    "temp_ref_c": ("temp_ref", 1.0, "float", -273.15),
-    "temp_coeff_dph_per_c": ("temp_coeff", U.DPH, "float", None),
-    "temp_coeff2_dph_per_c2": ("temp_coeff2", U.DPH, "float", None),
-    "temp_rate_coeff_dph_per_c_per_min": ("temp_rate_coeff", U.DPH * 60.0, "float", None),
-    "temp_cross_coeff_dph_per_c_per_c_per_min": ("temp_cross_coeff", U.DPH * 60.0, "float", None),
+    "bias_dph": ("bias", U.DPH, "float", -1e5, 1e5),
+    "switch_on_bias_dph": ("switch_on_bias_sigma", U.DPH, "float", 0.0, 1e5),
+    "arw_deg_rt_h": ("arw", U.DEG_RT_H, "float", 0.0, 100.0),
+    "bias_instability_dph": ("bias_instability", U.DPH, "float", 0.0, 1e4),
+    "rrw_dph_rt_h": ("rrw", U.DPH_RT_H, "float", 0.0, 1e4),
+    "rate_ramp_dph_per_h": ("rate_ramp", U.DPH_PER_H, "float", -1e5, 1e5),
+    "quantization_arcsec": ("quantization", U.ARCSEC, "float", 0.0, 3600.0),
+    "scale_factor_ppm": ("scale_factor", U.PPM, "float", -1e5, 1e5),
+    "sf_nonlinearity_ppm": ("sf_nonlinearity", U.PPM, "float", -1e5, 1e5),
+    "sf_temp_coeff_ppm_per_c": ("sf_temp_coeff", U.PPM, "float", -1e4, 1e4),
+    "full_scale_dps": ("full_scale", U.DPS, "float", 0.0, 1e5),
+    "g_sens_switch_on_dph_per_g": ("g_sens_switch_on_sigma", U.DPH, "float", 0.0, 1e4),
+    "g2_sens_switch_on_dph_per_g2": ("g2_sens_switch_on_sigma", U.DPH, "float", 0.0, 1e4),
+    "temp_ref_c": ("temp_ref", 1.0, "float", -273.15, 500.0),
+    "temp_coeff_dph_per_c": ("temp_coeff", U.DPH, "float", -1e4, 1e4),
+    "temp_coeff2_dph_per_c2": ("temp_coeff2", U.DPH, "float", -1e3, 1e3),
+    "temp_rate_coeff_dph_per_c_per_min": ("temp_rate_coeff", U.DPH * 60.0, "float", -1e5, 1e5),
+    "temp_cross_coeff_dph_per_c_per_c_per_min": ("temp_cross_coeff", U.DPH * 60.0, "float",
+                                                 -1e4, 1e4),
 }
+G_SENS_LIMIT_DPH = 1e4       # deg/h per g (a DTG is ~10, MEMS ~100-1000)
+MISALIGNMENT_LIMIT_MRAD = 100.0
 
 
 def _fog(tbl: _Table, fs: float) -> tuple[FogParams, str | None, str, tuple[str, ...]]:
@@ -201,8 +241,8 @@ def _fog(tbl: _Table, fs: float) -> tuple[FogParams, str | None, str, tuple[str,
     merged = _Table(values, tbl.where, tbl.file)
     merged.used.add("source")
     kw: dict[str, Any] = {}
-    for key, (fld, factor, kind, lo) in _FOG_KEYS.items():
-        v = merged.get(key, kind, None, lo=lo)
+    for key, (fld, factor, kind, lo, hi) in _FOG_KEYS.items():
+        v = merged.get(key, kind, None, lo=lo, hi=hi)
         if v is not None:
             kw[fld] = v * factor
     axes = tuple(merged.get("axes", "strs", ["z"], choices={"x", "y", "z"}))
@@ -228,20 +268,25 @@ def _fog(tbl: _Table, fs: float) -> tuple[FogParams, str | None, str, tuple[str,
             continue
         rows = v if (isinstance(v, list) and v and isinstance(v[0], list)) else [v]
         ok = all(isinstance(r, list) and len(r) == n and all(
-            isinstance(x, (int, float)) and not isinstance(x, bool) for x in r) for r in rows)
+            isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+            and abs(x) <= G_SENS_LIMIT_DPH for x in r) for r in rows)
         if not ok or len(rows) not in (1, len(axes)):
             raise merged.err(key, f"expected a list of {n} numbers (deg/h per g"
-                             f"{'^2' if n == 6 else ''}), or one such list per axis "
+                             f"{'^2' if n == 6 else ''}, each finite and within "
+                             f"+-{G_SENS_LIMIT_DPH:g}), or one such list per axis "
                              f"({len(axes)}), got {v!r}")
         arr = [[x * U.DPH for x in r] for r in rows]
         kw[fld] = tuple(map(tuple, arr)) if len(arr) > 1 else tuple(arr[0])
     mis = merged.get("misalignment_mrad", "any", None)
     if mis is not None:
         ok = (isinstance(mis, list) and len(mis) == 3 and all(
-            isinstance(r, list) and len(r) == 3 and all(isinstance(x, (int, float)) for x in r)
+            isinstance(r, list) and len(r) == 3 and all(
+                isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+                and abs(x) <= MISALIGNMENT_LIMIT_MRAD for x in r)
             for r in mis))
         if not ok or any(mis[i][i] != 0 for i in range(3)):
-            raise merged.err("misalignment_mrad", f"expected a 3x3 list of lists with a zero "
+            raise merged.err("misalignment_mrad", f"expected a 3x3 list of lists of finite "
+                             f"numbers within +-{MISALIGNMENT_LIMIT_MRAD:g} mrad with a zero "
                              f"diagonal (row a: axis a's sensitivity to x, y, z rates), got {mis!r}")
         kw["misalignment"] = tuple(tuple(x * 1e-3 for x in r) for r in mis)
     disabled = merged.get("disabled_terms", "strs", [], choices=set(TERMS))
@@ -333,9 +378,40 @@ def _check_whole_samples(tbl: _Table, seg, fs: float):
                            ("move_s", getattr(seg, "move_time", 0.0))]}[seg.kind]
     for key, val in parts:
         n = val * fs
+        if not math.isfinite(n) or n > MAX_SAMPLES:
+            raise tbl.err(key, f"{val:g} s is {n:g} samples at sample_rate_hz = {fs:g}; the "
+                          f"limit is {MAX_SAMPLES:.3g} samples in all")
         if abs(n - round(n)) > 1e-6 * max(1.0, n):
             raise tbl.err(key, f"expected a whole number of samples at sample_rate_hz = {fs:g}, "
                           f"got {val:g} s = {n:g} samples")
+
+
+def decode_text(raw: bytes, file: str) -> str:
+    """A scenario file's text: UTF-8 (TOML's encoding; a leading byte-order mark is accepted).
+    Anything else is refused naming the line and column of the first undecodable byte."""
+    if raw.startswith(b"\xef\xbb\xbf"):
+        raw = raw[3:]
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw.count(b"\n", 0, exc.start) + 1
+        col = exc.start - (raw.rfind(b"\n", 0, exc.start) + 1) + 1
+        raise ScenarioError(f"{file}: line {line}, column {col}: not UTF-8 text (byte "
+                            f"0x{raw[exc.start]:02x}); save the file as UTF-8") from None
+
+
+def _check_size(runs: list[Run], fs: float, n_axes: int, file: str) -> None:
+    """Refuse, before any simulation, a scenario whose runs cannot fit in memory."""
+    per_run = [(r.name, r.duration * fs) for r in runs]
+    total = sum(n for _, n in per_run)
+    est = total * (BYTES_PER_SAMPLE + 8 * 16 * n_axes)
+    if total > MAX_SAMPLES or est > MAX_ESTIMATED_BYTES:
+        big = max(per_run, key=lambda x: x[1])
+        raise ScenarioError(
+            f"{file}: the runs ask for {total:.3g} samples in all (largest: run {big[0]!r}, "
+            f"{big[1]:.3g} samples), about {est / 2**30:.3g} GiB of memory; the limit is "
+            f"{MAX_SAMPLES:.3g} samples and {MAX_ESTIMATED_BYTES / 2**30:g} GiB: shorten the "
+            "runs' duration_s or lower sample_rate_hz")
 
 
 def load_scenario(path: str | Path, extra_sections: tuple[str, ...] = ()) -> Scenario:
@@ -347,16 +423,19 @@ def load_scenario(path: str | Path, extra_sections: tuple[str, ...] = ()) -> Sce
     path = Path(path)
     file = str(path)
     try:
-        text = path.read_text()
+        if path.is_dir():
+            raise ScenarioError(f"{file}: is a directory, expected a scenario file (TOML)")
+        raw = path.read_bytes()
     except OSError as exc:
         raise ScenarioError(f"{file}: cannot read ({exc.strerror})") from None
+    text = decode_text(raw, file)
     try:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError(f"{file}: not valid TOML ({exc})") from None
     top = _Table(doc, "top level", file)
     sc = _Table(top.get("scenario", "table"), "[scenario]", file)
-    name = sc.get("name", "str")
+    name = sc.get("name", "name")
     description = sc.get("description", "str", "")
     fs = sc.get("sample_rate_hz", "float", lo=0.0, lo_open=True, hi=10_000.0)
     ambient = sc.get("ambient_c", "float", 20.0, lo=-80.0, hi=150.0)
@@ -373,7 +452,7 @@ def load_scenario(path: str | Path, extra_sections: tuple[str, ...] = ()) -> Sce
         raise top.err("runs", "expected at least one [[runs]] table")
     for i, rt in enumerate(run_tables):
         r = _Table(rt, f"[[runs]][{i}]", file)
-        rname = r.get("name", "str")
+        rname = r.get("name", "name")
         if rname in seen:
             raise r.err("name", f"run names must be unique; {rname!r} appears twice")
         seen.add(rname)
@@ -402,6 +481,7 @@ def load_scenario(path: str | Path, extra_sections: tuple[str, ...] = ()) -> Sce
             thermal = _thermal(_Table(r.get("thermal", "table"), f"{r.where} thermal", file))
         r.done()
         runs.append(Run(rname, seed, tuple(segs), thermal, tilt0))
+    _check_size(runs, fs, len(axes), file)
     extra = {}
     for sec in extra_sections:
         if top.has(sec):
@@ -583,7 +663,7 @@ def _selection(v, where: str, file: str, run_names: set[str], runs: dict[str, Ru
                         "protocol uses it")
     elif run not in run_names:
         raise t.err("run", f"expected one of the scenario's runs {sorted(run_names)}, got {run!r}")
-    segs = tuple(int(x) for x in t.get("segments", "floats", [], lo=0))
+    segs = tuple(t.get("segments", "ints", [], lo=0))
     nseg = min(len(r.motion) for r in runs.values()) if run == "*" else len(runs[run].motion)
     for s in segs:
         if s >= nseg or s != int(s):
@@ -623,7 +703,7 @@ def load_plan(sc: Scenario) -> Plan:
         raise extra.err("protocols", "expected at least one [[protocols]] table")
     for i, pt in enumerate(ptabs):
         t = _Table(pt, f"[[protocols]][{i}]", file)
-        pname = t.get("name", "str")
+        pname = t.get("name", "name")
         t.where = f"[[protocols]] '{pname}'"
         fit_raw = t.get("fit", "any")
         score_raw = t.get("score", "any")
@@ -671,10 +751,13 @@ def load_plan(sc: Scenario) -> Plan:
             raise t.err("name", exc.args[0]) from None
         params = dict(t.get("params", "table", {}))
         try:
-            make_method(mname, **params)
+            model = make_method(mname, **params)
+            check = getattr(model, "check_params", None) or getattr(model, "_validate", None)
+            if check is not None:
+                check()
         except (TypeError, ValueError) as exc:
-            raise t.err("params", str(exc)) from None
-        methods.append(MethodSpec(mname, t.get("label", "str", mname), params))
+            raise t.err("params", f"method {t.data.get('label', mname)!r}: {exc}") from None
+        methods.append(MethodSpec(mname, t.get("label", "name", mname), params))
         t.done()
     if not methods:
         raise extra.err("methods", "expected at least one [[methods]] table")

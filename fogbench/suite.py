@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 import sys
 import time
 import traceback
@@ -10,6 +11,7 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 from .io import atomic_write_text
+from .outdir import OutDirError, Terminated, check_out_dir
 from .fmt import fmt
 from .scenario import RUNNER_SECTIONS, ScenarioError, load_plan, load_scenario
 
@@ -37,6 +39,12 @@ def _one(path: str, out: str, recording: bool, quiet: bool) -> dict:
     except Exception as exc:  # a broken scenario is reported; the suite goes on
         return {"path": path, "name": name, "ok": False, "wall_s": time.monotonic() - t0,
                 "error": f"{type(exc).__name__}: {exc}", "traceback": traceback.format_exc()}
+    except Terminated:
+        # the main process is ending the suite: temporary folders are already removed by the
+        # unwinding; leave now rather than wait for the pool's next task
+        if _IN_WORKER:
+            os._exit(143)
+        raise
 
 
 def _values(doc: dict, protocol: str, method: str, metric: str, run: str | None):
@@ -154,7 +162,7 @@ def summary_markdown(results: list[dict], plans: dict, out: Path, violations: li
     from .io import versions
 
     v = versions()
-    L = ["# fogbench suite: summary", "",
+    L = [SUMMARY_TITLE, "",
          f"Written by `fogbench suite` (`make run`) on {datetime.date.today().isoformat()} with "
          f"fogbench {v['fogbench']}, mujoco {v['mujoco']}, numpy {v['numpy']}; the scenario "
          "reports it links (`<scenario>/report.md`, figures, `metrics.json`, `recording.rrd`) are "
@@ -205,23 +213,80 @@ def summary_markdown(results: list[dict], plans: dict, out: Path, violations: li
     return "\n".join(L)
 
 
+SUMMARY_TITLE = "# fogbench suite: summary"
+_IN_WORKER = False
+
+
+def _worker_init() -> None:
+    """In a worker: Ctrl-C is the main process's to handle (no tracebacks from every worker);
+    SIGTERM (sent by the main process when interrupted) unwinds so temporary folders go."""
+    import signal
+
+    from .outdir import install_sigterm
+
+    global _IN_WORKER
+    _IN_WORKER = True
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    install_sigterm()
+
+
+def _stop_pool(pool: ProcessPoolExecutor) -> None:
+    """Cancel what has not started and end the workers now (SIGTERM, then SIGKILL)."""
+    procs = list((getattr(pool, "_processes", None) or {}).values())  # no public handle
+    pool.shutdown(wait=False, cancel_futures=True)
+    for proc in procs:
+        if proc.is_alive():
+            proc.terminate()
+    for proc in procs:
+        proc.join(timeout=10)
+        if proc.is_alive():
+            proc.kill()
+            proc.join(timeout=5)
+
+
+def _summary_path(out: Path, partial: bool) -> Path:
+    readme = Path(out) / ("README.partial.md" if partial else "README.md")
+    if readme.exists():
+        try:
+            first = readme.read_text(errors="replace").splitlines()[:1]
+        except OSError as exc:
+            raise OutDirError(f"--out {out}: cannot read {readme} ({exc.strerror})") from None
+        if first != [SUMMARY_TITLE]:
+            raise OutDirError(f"--out {out}: {readme} exists and is not a fogbench suite summary "
+                              f"(its first line is not {SUMMARY_TITLE!r}); it was left "
+                              "untouched. Give another --out folder")
+    return readme
+
+
 def run_suite(scenario_dir: Path, out: Path, check: bool = False, jobs: int = 2,
               only_ci: bool = False, recording: bool = True, quiet: bool = False,
               names: list[str] | None = None) -> int:
-    paths = sorted(Path(scenario_dir).glob("*.toml"))
+    scenario_dir = Path(scenario_dir)
+    if not scenario_dir.is_dir():
+        raise OutDirError(f"--scenarios {scenario_dir}: not a folder")
+    paths = sorted(scenario_dir.glob("*.toml"))
     if not paths:
         print(f"fogbench: error: no scenario files (*.toml) in {scenario_dir}", file=sys.stderr)
         return 2
-    plans, chosen, results = {}, [], []
+    plans, chosen, results, first_file = {}, [], [], {}
     for p in paths:
         try:
             sc = load_scenario(p, extra_sections=RUNNER_SECTIONS)
             plan = load_plan(sc)
         except ScenarioError as exc:
+            if names and p.stem not in names:
+                # a broken file the user did not ask for: say so, and go on with the others
+                print(f"fogbench: warning: skipped: {exc}", file=sys.stderr)
+                continue
             results.append({"path": str(p), "name": p.stem, "ok": False, "wall_s": 0.0,
                             "error": str(exc)})
             print(f"fogbench: error: {exc}", file=sys.stderr)
             continue
+        if sc.name in first_file:
+            raise ScenarioError(f"{p}: [scenario] key 'name': {sc.name!r} is also the name of "
+                                f"{first_file[sc.name]}; scenario names must be unique in a "
+                                "suite (each names its report folder)")
+        first_file[sc.name] = p
         if only_ci and not plan.ci:
             continue
         if names and sc.name not in names:
@@ -234,6 +299,16 @@ def run_suite(scenario_dir: Path, out: Path, check: bool = False, jobs: int = 2,
             print(f"fogbench: error: no scenario named {missing} in {scenario_dir}",
                   file=sys.stderr)
             return 2
+    if not chosen:
+        if results:  # every scenario file was refused: nothing to run, nothing written
+            return 2
+        print(f"fogbench: error: no scenario to run in {scenario_dir}"
+              + (" (none is marked ci = true)" if only_ci else ""), file=sys.stderr)
+        return 2
+    # every output place is checked before any work: nothing of the user's is ever replaced
+    readme = _summary_path(out, partial=bool(only_ci or names))
+    for name in plans:
+        check_out_dir(Path(out) / name, "run", flag=f"--out {out}: folder {name}")
     t0 = time.monotonic()
     if not quiet:
         print(f"fogbench suite: {len(chosen)} scenario(s), {jobs} process(es)", file=sys.stderr)
@@ -242,11 +317,16 @@ def run_suite(scenario_dir: Path, out: Path, check: bool = False, jobs: int = 2,
             results.append(_one(p, str(out), recording, quiet))
             _report_done(results[-1], quiet)
     else:
-        with ProcessPoolExecutor(max_workers=jobs) as pool:
+        pool = ProcessPoolExecutor(max_workers=jobs, initializer=_worker_init)
+        try:
             futs = [pool.submit(_one, p, str(out), recording, quiet) for p in chosen]
             for f in as_completed(futs):
                 results.append(f.result())
                 _report_done(results[-1], quiet)
+        except BaseException:
+            _stop_pool(pool)
+            raise
+        pool.shutdown(wait=True)
     violations = []
     for r in results:
         if r["ok"]:
@@ -254,9 +334,6 @@ def run_suite(scenario_dir: Path, out: Path, check: bool = False, jobs: int = 2,
         else:
             violations.append(f"{r['name']}: scenario failed: {r['error']}")
     summary = summary_markdown(results, plans, out, violations)
-    readme = Path(out) / "README.md"
-    if only_ci or names:
-        readme = Path(out) / "README.partial.md"  # a subset never overwrites the full summary
     atomic_write_text(readme, summary)
     print(f"fogbench suite: {sum(r['ok'] for r in results)}/{len(results)} scenario(s) ran in "
           f"{time.monotonic() - t0:.1f} s; summary in {readme}")

@@ -1,0 +1,328 @@
+"""The bench never destroys or escapes: a user's files stay byte-identical whatever --out or a
+scenario's names say, bad input is refused before any work with file, key and reason, and an
+interrupted command leaves no temporary folders behind (issue 9)."""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import io
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from fogbench.cli import main
+from fogbench.outdir import MARKER
+from fogbench.scenario import ScenarioError, load_plan, load_scenario, RUNNER_SECTIONS
+
+ROOT = Path(__file__).resolve().parents[1]
+
+SCENARIO = """
+[scenario]
+name = "tiny"
+sample_rate_hz = 10.0
+
+[fog]
+preset = "tactical"
+
+[[runs]]
+name = "a"
+seed = 1
+[[runs.motion]]
+type = "hold"
+duration_s = 30.0
+
+[[runs]]
+name = "b"
+seed = 2
+[[runs.motion]]
+type = "rate"
+rate_dps = 10.0
+duration_s = 30.0
+
+[[protocols]]
+name = "p"
+fit = ["a"]
+score = ["b"]
+
+[[methods]]
+name = "wavelet_soft"
+"""
+
+
+def snapshot(root: Path) -> dict[str, str]:
+    """Every file under ``root`` (hidden ones included) with its SHA-256."""
+    return {str(p.relative_to(root)): hashlib.sha256(p.read_bytes()).hexdigest()
+            for p in sorted(root.rglob("*")) if p.is_file()}
+
+
+def cli(*args, cwd=None) -> tuple[int, str, str]:
+    """``fogbench ARGS`` in this process (as the console command runs it): exit code, stdout,
+    stderr. The signal handler main() installs is put back afterwards."""
+    out, err = io.StringIO(), io.StringIO()
+    handler = signal.getsignal(signal.SIGTERM)
+    try:
+        with contextlib.chdir(cwd or os.getcwd()), contextlib.redirect_stdout(out), \
+                contextlib.redirect_stderr(err):
+            try:
+                code = main([str(a) for a in args])
+            except SystemExit as exc:  # argparse
+                code = exc.code
+    finally:
+        signal.signal(signal.SIGTERM, handler)
+    return code, out.getvalue(), err.getvalue()
+
+
+@pytest.fixture
+def home(tmp_path):
+    """A user's folder: a scenario, a thesis folder, a notes file."""
+    (tmp_path / "thesis").mkdir()
+    (tmp_path / "thesis" / "ch1.tex").write_text("\\chapter{FOG}\n")
+    (tmp_path / "notes.txt").write_text("do not lose me\n")
+    (tmp_path / "scn").mkdir()
+    (tmp_path / "scn" / "tiny.toml").write_text(SCENARIO)
+    (tmp_path / "scn" / "my_notes.md").write_text("notes beside the scenario\n")
+    return tmp_path
+
+
+# --- --out never replaces what it did not write ------------------------------------------------
+@pytest.mark.parametrize("out", ["thesis", "notes.txt", "..", ".", "/proc/x", "", "scn"])
+@pytest.mark.parametrize("command", ["run", "simulate"])
+def test_out_that_is_not_ours_is_refused_and_left_identical(home, out, command):
+    before = snapshot(home)
+    extra = ["--no-recording"] if command == "run" else []
+    code, stdout, stderr = cli(command, str(home / "scn" / "tiny.toml"), "--out", out, "--quiet",
+                               *extra, cwd=home)
+    assert code == 2, stderr
+    assert stderr.startswith("fogbench: error: --out") and "Traceback" not in stderr
+    assert stderr.count("\n") == 1  # one line
+    assert snapshot(home) == before  # nothing written, nothing removed or renamed
+    assert not [p for p in home.parent.iterdir() if p.name.startswith(f".{home.name}.")]
+
+
+def test_run_replaces_only_its_own_directory_and_cleans_stale_parts(home):
+    out = home / "out"
+    code, _, err = cli("run", "scn/tiny.toml", "--out", "out", "--quiet", "--no-recording",
+                       cwd=home)
+    assert code == 0, err
+    marker = json.loads((out / MARKER).read_text())
+    assert marker["kind"] == "run" and marker["scenario"] == "tiny"
+    # a leftover of a killed run (ours: marker, dead pid) and a folder of the user's alike
+    stale = home / ".out.abc123.part"
+    stale.mkdir()
+    (stale / MARKER).write_text(json.dumps({"kind": "run", "pid": 2**22 + 12345}))
+    users = home / ".out.mine.part"
+    users.mkdir()
+    (users / "keep.txt").write_text("mine")
+    (out / "extra_from_old_run.txt").write_text("x")
+    code, _, err = cli("run", "scn/tiny.toml", "--out", "out", "--quiet", "--no-recording",
+                       cwd=home)
+    assert code == 0, err
+    assert not stale.exists()                       # our own leftover: removed
+    assert (users / "keep.txt").read_text() == "mine"  # not ours: untouched
+    assert not (out / "extra_from_old_run.txt").exists()  # our old run dir: replaced whole
+    assert (out / "metrics.json").exists()
+
+
+def test_simulate_into_a_run_directory_is_refused(home):
+    assert cli("run", "scn/tiny.toml", "--out", "r", "--quiet", "--no-recording",
+               cwd=home)[0] == 0
+    before = snapshot(home)
+    code, _, err = cli("simulate", "scn/tiny.toml", "--out", "r", "--quiet", cwd=home)
+    assert code == 2 and "fogbench run directory, not a simulation directory" in err
+    assert snapshot(home) == before
+
+
+# --- names that become paths ---------------------------------------------------------------------
+@pytest.mark.parametrize("where,old,new", [
+    ("[scenario]", 'name = "tiny"', 'name = "../scn"'),
+    ("[scenario]", 'name = "tiny"', 'name = ""'),
+    ("[scenario]", 'name = "tiny"', 'name = "."'),
+    ("[scenario]", 'name = "tiny"', 'name = "a/b"'),
+    ("[[runs]]", 'name = "a"', 'name = "../../x"'),
+    ("[[protocols]]", 'name = "p"', 'name = "p/../../q"'),
+    ("[[methods]]", 'name = "wavelet_soft"', 'name = "wavelet_soft"\nlabel = "../w"'),
+])
+def test_path_like_names_are_refused_at_load(home, where, old, new):
+    p = home / "scn" / "tiny.toml"
+    p.write_text(SCENARIO.replace(old, new, 1))
+    before = snapshot(home)
+    for args in (["run", str(p), "--no-recording"], ["simulate", str(p), "--out", "o"],
+                 ["suite", "--scenarios", "scn", "--out", "rep", "--no-recording"]):
+        code, _, err = cli(*args, "--quiet", cwd=home)
+        assert code in (1, 2), err
+        assert "tiny.toml" in err and where.strip("[]") in err and "name" in err
+        assert "Traceback" not in err
+        assert snapshot(home) == before
+
+
+def test_two_scenarios_with_one_name_are_refused_by_the_suite(home):
+    (home / "scn" / "copy.toml").write_text(SCENARIO)
+    before = snapshot(home)
+    code, _, err = cli("suite", "--scenarios", "scn", "--out", "rep", "--quiet", cwd=home)
+    assert code == 2 and "names must be unique" in err
+    assert "copy.toml" in err and "tiny.toml" in err
+    assert snapshot(home) == before
+
+
+def test_suite_never_overwrites_a_readme_it_did_not_write(home):
+    (home / "rep").mkdir()
+    (home / "rep" / "README.md").write_text("# my own report folder\n")
+    before = snapshot(home)
+    code, _, err = cli("suite", "--scenarios", "scn", "--out", "rep", "--quiet", cwd=home)
+    assert code == 2 and "not a fogbench suite summary" in err
+    assert snapshot(home) == before
+
+
+# --- refused at load ------------------------------------------------------------------------------
+BAD = [
+    ('rate_dps = 10.0\nduration_s = 30.0',
+     'rates_dps = [nan, 10.0]\nstep_s = 15.0', 'rate_steps', ["rates_dps", "finite", "index 0"]),
+    ('preset = "tactical"', 'preset = "tactical"\ng_sens_dph_per_g = [nan, 0.0, 1.0]', None,
+     ["g_sens_dph_per_g", "finite"]),
+    ('preset = "tactical"', 'preset = "tactical"\ng2_sens_dph_per_g2 = [0, 0, inf, 0, 0, 0]', None,
+     ["g2_sens_dph_per_g2", "finite"]),
+    ('preset = "tactical"',
+     'preset = "tactical"\nmisalignment_mrad = [[0, nan, 0], [0, 0, 0], [0, 0, 0]]', None,
+     ["misalignment_mrad", "finite"]),
+    ('fit = ["a"]', 'fit = [{ run = "a", segments = [0.5] }]', None,
+     ["segments", "integers"]),
+    ('preset = "tactical"', 'preset = "tactical"\narw_deg_rt_h = 1e12', None,
+     ["arw_deg_rt_h", "<= 100"]),
+    ('preset = "tactical"', 'preset = "tactical"\nbias_dph = -1e9', None,
+     ["bias_dph", ">= -100000"]),
+    ('duration_s = 30.0\n\n[[runs]]', 'duration_s = 1e9\n\n[[runs]]', None,
+     ["samples", "limit", "'a'"]),
+    ('name = "wavelet_soft"', 'name = "wavelet_soft"\nparams = { level = "four" }', None,
+     ["[[methods]]", "wavelet_soft", "level"]),
+    ('name = "wavelet_soft"', 'name = "wavelet_soft"\nparams = { wavelet = "db99" }', None,
+     ["[[methods]]", "wavelet_soft", "wavelet"]),
+    ('name = "wavelet_soft"', 'name = "kalman"\nparams = { smoother = "yes" }', None,
+     ["[[methods]]", "kalman", "smoother"]),
+    ('name = "wavelet_soft"', 'name = "kalman"\nparams = { arw_rad_rt_s = nan }', None,
+     ["[[methods]]", "kalman", "arw_rad_rt_s"]),
+]
+
+
+@pytest.mark.parametrize("old,new,kind,words", BAD, ids=[b[3][0] for b in BAD])
+def test_bad_values_are_refused_at_load_naming_file_and_key(home, old, new, kind, words):
+    text = SCENARIO.replace(old, new, 1)
+    if kind:
+        text = text.replace('type = "rate"', f'type = "{kind}"', 1)
+    assert text != SCENARIO
+    p = home / "scn" / "tiny.toml"
+    p.write_text(text)
+    t0 = time.monotonic()
+    with pytest.raises(ScenarioError) as exc:
+        load_plan(load_scenario(p, extra_sections=RUNNER_SECTIONS))
+    assert time.monotonic() - t0 < 30  # refused, not simulated (a generous bound, not a timing)
+    msg = str(exc.value)
+    assert msg.startswith(str(p))
+    for w in words:
+        assert w in msg, f"{w!r} not in {msg}"
+
+
+@pytest.mark.parametrize("content,words", [
+    (SCENARIO.replace('[fog]', '# Température de la chambre\n[fog]').encode("latin-1"),
+     ["line 6", "not UTF-8"]),
+    (bytes(range(256)) * 4, ["line 2, column 118", "not UTF-8", "0x80"]),
+])
+def test_non_utf8_files_are_refused_naming_the_file_and_line(home, content, words):
+    p = home / "scn" / "tiny.toml"
+    p.write_bytes(content)
+    code, _, err = cli("check", str(p))
+    assert code == 2 and str(p) in err and "Traceback" not in err
+    for w in words:
+        assert w in err
+
+
+def test_a_utf8_byte_order_mark_is_accepted(home):
+    p = home / "scn" / "tiny.toml"
+    p.write_bytes(b"\xef\xbb\xbf" + SCENARIO.encode())
+    assert load_scenario(p, extra_sections=RUNNER_SECTIONS).name == "tiny"
+
+
+def test_a_broken_file_in_the_suite_folder_does_not_stop_a_named_scenario(home):
+    (home / "scn" / "broken.toml").write_bytes(b"[scenario]\nname = \"\xff\"\n")
+    code, _, err = cli("suite", "--scenarios", "scn", "--scenario", "tiny", "--out", "rep",
+                       "--quiet", "--no-recording", cwd=home)
+    assert code == 0, err
+    assert "skipped" in err and "broken.toml" in err
+    assert (home / "rep" / "tiny" / "metrics.json").exists()
+
+
+# --- a valid scenario must not crash --------------------------------------------------------------
+def test_short_run_with_thermal_section_writes_its_report(home, tmp_path):
+    p = home / "scn" / "tiny.toml"
+    p.write_text(SCENARIO.replace("[[runs]]", "[thermal]\nstart_c = 20.0\n[[thermal.steps]]\n"
+                                  "ramp_to_c = 25.0\nrate_c_per_min = 10.0\n\n[[runs]]", 1))
+    code, _, err = cli("run", str(p), "--out", "o", "--quiet", "--no-recording", cwd=home)
+    assert code == 0, err
+    assert (home / "o" / "report.md").exists() and (home / "o" / "metrics.json").exists()
+
+
+# --- the command line ------------------------------------------------------------------------------
+@pytest.mark.parametrize("args,flag", [
+    (["bench", "--seconds", "0"], "--seconds"), (["bench", "--seconds", "-1"], "--seconds"),
+    (["bench", "--seconds", "nan"], "--seconds"), (["bench", "--repeats", "0"], "--repeats"),
+    (["suite", "--jobs", "0"], "--jobs"), (["suite", "--jobs", "-1"], "--jobs"),
+    (["suite", "--jobs", "two"], "--jobs"),
+])
+def test_every_flag_is_validated_naming_it(args, flag, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(args)
+    assert exc.value.code == 2
+    assert flag in capsys.readouterr().err
+
+
+def test_simulate_unknown_run_is_bad_input_exit_2_before_any_work(home):
+    before = snapshot(home)
+    code, _, err = cli("simulate", "scn/tiny.toml", "--out", "o", "--run", "nope", cwd=home)
+    assert code == 2 and "--run" in err and "nope" in err
+    assert snapshot(home) == before
+
+
+def _part_dirs(root: Path) -> list[Path]:
+    return [p for p in root.rglob(".*") if p.name.endswith((".part", ".old"))]
+
+
+@pytest.mark.parametrize("sig,code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_interrupted_suite_exits_cleanly_and_leaves_no_temporary_folders(home, sig, code):
+    """Ctrl-C or SIGTERM while two workers simulate: the main process ends the workers, says so
+    in one line, no worker prints a traceback, and no hidden .part folder is left."""
+    long = SCENARIO.replace("duration_s = 30.0", "duration_s = 3000.0").replace(
+        'type = "hold"', 'type = "rate"\nrate_dps = 5.0')
+    (home / "scn" / "tiny.toml").write_text(long)
+    (home / "scn" / "tiny2.toml").write_text(long.replace('name = "tiny"', 'name = "tiny2"'))
+    proc = subprocess.Popen([sys.executable, "-m", "fogbench.cli", "suite", "--scenarios", "scn",
+                             "--out", "rep", "--jobs", "2", "--no-recording"], cwd=home,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    # wait until both workers are simulating
+    t0 = time.monotonic()
+    seen = ""
+    while time.monotonic() - t0 < 60:
+        line = proc.stderr.readline()
+        seen += line
+        if seen.count("simulate") >= 2:
+            break
+    time.sleep(0.5)
+    if sig == signal.SIGINT:
+        os.killpg(proc.pid, signal.SIGINT)  # Ctrl-C reaches the whole foreground group
+    else:
+        proc.send_signal(signal.SIGTERM)
+    try:
+        _, err = proc.communicate(timeout=60)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        pytest.fail("the suite hung after the signal")
+    err = seen + err
+    assert proc.returncode == code, err
+    assert "Traceback" not in err and "KeyboardInterrupt" not in err
+    assert _part_dirs(home) == []

@@ -162,7 +162,7 @@ def test_progress_writes_to_stderr_and_is_silent_when_quiet(capsys):
     assert out == "" and "quiet" not in err and "2/2" in err and "loud" in err
 
 
-# -- seeds ------------------------------------------------------------------------------------------
+# -- seeds ---------------------------------------------------------------------------------------
 def test_seeds_are_distinct_over_coordinates_and_depend_on_them_only():
     seen = {replicate_seed(s, r, k, st) for s in (0, 1) for r in range(40) for k in range(5)
             for st in (0, 1, "fog", "method:wnn")}

@@ -289,8 +289,11 @@ ROUND_TRIP = ["flnn_lstsq", "poly_temp", "model_lstsq", "wavelet_soft", "kalman"
               "aco_bp", "wnn"]
 
 
-def test_the_round_trip_list_holds_every_registered_method():
-    assert sorted(ROUND_TRIP) == fogcomp.available_methods()
+def test_the_round_trip_list_holds_every_built_in_method():
+    # other test modules register toy methods of their own: compare with fogcomp's
+    built_in = [n for n in fogcomp.available_methods()
+                if fogcomp.get_method(n).__module__.startswith("fogcomp.methods.")]
+    assert sorted(ROUND_TRIP) == built_in
 
 
 @settings(max_examples=25, deadline=None,

@@ -14,7 +14,7 @@ from fogbench.stats import (claim_verdict, mean_ci, ordering_probabilities, orde
                             paired_difference, summarize)
 
 
-# -- summary ----------------------------------------------------------------------------------------
+# -- summary -------------------------------------------------------------------------------------
 @pytest.mark.parametrize("n", [2, 3, 10])
 def test_the_t_interval_covers_the_true_mean_95_percent_of_the_time(n):
     # Exact for normal data at every n: with the normal quantile 1.96 instead of t, n = 2 would
@@ -92,7 +92,7 @@ def test_bad_input_is_refused_with_its_name(kwargs, match):
         mean_ci([1.0, 2.0], method="bca")
 
 
-# -- paired difference ------------------------------------------------------------------------------
+# -- paired difference ---------------------------------------------------------------------------
 def slow_paired(a, b, better):
     wins = ties = losses = 0
     diffs = []
@@ -145,7 +145,7 @@ def test_paired_difference_refuses_unpaired_lengths():
         paired_difference([1.0, 2.0], [1.0, 3.0], better="smaller")
 
 
-# -- claim verdicts --------------------------------------------------------------------------------
+# -- claim verdicts ------------------------------------------------------------------------------
 def around(c, n=200, spread=0.01, seed=0):
     """Values whose interval of the mean is c +- about 0.0014."""
     return c + spread * np.random.default_rng(seed).standard_normal(n)
@@ -220,7 +220,7 @@ def test_bad_claims_are_refused(lo, hi, match):
         claim_verdict([1.0, 2.0], lo, hi)
 
 
-# -- orderings --------------------------------------------------------------------------------------
+# -- orderings -----------------------------------------------------------------------------------
 def slow_orderings(values, better):
     names = list(values)
     R = len(next(iter(values.values())))

@@ -16,6 +16,8 @@ import io
 import json
 import os
 import tempfile
+import zipfile
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar
@@ -37,7 +39,7 @@ __all__ = [
 ]
 
 FORMAT_NAME = "fogcomp-model"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 INPUT_NAMES = ("rate", "g", "temp", "temp_rate")
 
 
@@ -85,9 +87,13 @@ class GyroData:
         if n == 0:
             raise ValueError("rate: empty array, expected at least one sample")
         object.__setattr__(self, "rate", rate)
-        if not (isinstance(self.fs, (int, float, np.floating, np.integer)) and np.isfinite(self.fs)
-                and self.fs > 0):
-            raise ValueError(f"fs: sample rate must be a positive finite number in Hz, got {self.fs!r}")
+        if (isinstance(self.fs, (bool, np.bool_))
+                or not isinstance(self.fs, (int, float, np.floating, np.integer))
+                or not np.isfinite(self.fs) or self.fs <= 0):
+            why = (" (a boolean is not a sample rate)"
+                   if isinstance(self.fs, (bool, np.bool_)) else "")
+            raise ValueError(f"fs: sample rate must be a positive finite number in Hz, "
+                             f"got {self.fs!r}{why}")
         object.__setattr__(self, "fs", float(self.fs))
         if self.g is not None:
             g = _as_float_array("g", self.g, ndim=2)
@@ -137,7 +143,15 @@ class GyroData:
 
 def _as_float_array(name: str, value: Any, ndim: int) -> np.ndarray:
     try:
-        arr = np.asarray(value, dtype=float)
+        raw = np.asarray(value)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name}: cannot be read as an array ({exc})") from None
+    kind = _refused_kind(raw)
+    if kind:
+        raise ValueError(f"{name}: {kind} values are not accepted, expected real numbers "
+                         f"(dtype {raw.dtype}); convert explicitly if that is really meant")
+    try:
+        arr = np.asarray(raw, dtype=float)
     except (TypeError, ValueError) as exc:
         raise ValueError(f"{name}: cannot be read as a float array ({exc})") from None
     if arr.ndim != ndim:
@@ -145,8 +159,24 @@ def _as_float_array(name: str, value: Any, ndim: int) -> np.ndarray:
     bad = ~np.isfinite(arr)
     if bad.any():
         idx = np.argwhere(bad)[0]
-        raise ValueError(f"{name}: non-finite value {arr[tuple(idx)]} at index {tuple(int(i) for i in idx)}")
+        where = tuple(int(i) for i in idx)
+        raise ValueError(f"{name}: non-finite value {arr[tuple(idx)]} at index {where}")
     return arr
+
+
+def _refused_kind(raw: np.ndarray) -> str:
+    """'boolean' or 'complex' when ``raw`` holds such values (which a float cast would hide)."""
+    if raw.dtype.kind == "b":
+        return "boolean"
+    if raw.dtype.kind == "c":
+        return "complex"
+    if raw.dtype.kind == "O":
+        for x in raw.flat:
+            if isinstance(x, (bool, np.bool_)):
+                return "boolean"
+            if isinstance(x, (complex, np.complexfloating)):
+                return "complex"
+    return ""
 
 
 class Compensator:
@@ -190,6 +220,32 @@ class Compensator:
     def __repr__(self) -> str:
         args = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())
         return f"{type(self).__name__}({args})"
+
+    def check_params(self) -> None:
+        """Check every hyperparameter now, without data.
+
+        Calls the method's ``_validate()`` when its class defines one (each method checks the
+        type and range of each of its hyperparameters there), and checks ``random_state`` for
+        methods that draw random numbers. Lets a scenario loader refuse a bad hyperparameter before
+        any simulation runs.
+
+        Raises
+        ------
+        ValueError
+            Naming the hyperparameter and what was expected.
+        """
+        if type(self).random:
+            rs = getattr(self, "random_state", None)
+            ok = (rs is None or isinstance(rs, (np.random.Generator, np.random.BitGenerator,
+                                           np.random.SeedSequence))
+                  or (isinstance(rs, (int, np.integer)) and not isinstance(rs, (bool, np.bool_))
+                      and rs >= 0))
+            if not ok:
+                raise ValueError(f"random_state: must be a non-negative integer seed, a numpy "
+                                 f"SeedSequence, BitGenerator or Generator, or None; got {rs!r}")
+        validate = getattr(self, "_validate", None)
+        if callable(validate):
+            validate()
 
     # -- public API ----------------------------------------------------------------------------
     def fit(self, data: GyroData, reference_rate: np.ndarray | None = None) -> "Compensator":
@@ -310,7 +366,11 @@ def get_method(name: str) -> type[Compensator]:
 
 
 def make_method(name: str, **hyperparameters) -> Compensator:
-    """An instance of method ``name`` with ``hyperparameters`` overriding the paper's defaults."""
+    """An instance of method ``name`` with ``hyperparameters`` overriding the paper's defaults.
+
+    The hyperparameters are checked at once (:meth:`Compensator.check_params`), so a wrong type or
+    value is a ``ValueError`` naming the hyperparameter here, not after minutes of work in ``fit``.
+    """
     import inspect
 
     cls = get_method(name)
@@ -319,12 +379,33 @@ def make_method(name: str, **hyperparameters) -> Compensator:
     if unknown:
         raise ValueError(f"method {name!r}: unknown hyperparameter(s) {unknown}; "
                          f"allowed: {allowed}")
-    return cls(**hyperparameters)
+    model = cls(**hyperparameters)
+    model.check_params()
+    return model
 
 
 # ---------------------------------------------------------------------------------------------
-# Persistence: JSON (hyperparameters, scalar state, checksum) + NPZ (arrays), never pickle.
+# Persistence: JSON (hyperparameters, scalar state, manifest, checksums) + NPZ (arrays), never
+# pickle.
+#
+# Format version 2 (version 1 checked only the .npz):
+#   format, version, method, hyperparameters, state,
+#   arrays          {name: {"shape": [...], "dtype": "<f8"}} for every array in the .npz,
+#   arrays_sha256   SHA-256 of the .npz bytes,
+#   sha256          SHA-256 of the canonical JSON (sorted keys, no spaces) of every other key, so
+#                   that any edit of the .json (a learned number, a hyperparameter, the manifest or
+#                   the .npz checksum) is refused.
+# The checksums detect damage and hand edits; they are not a signature: whoever rewrites both
+# checksums can make any file pass them. What they let through is then checked for consistency
+# (hyperparameters validated, arrays against the manifest, the restored model compensating a probe
+# record).
+_ARRAY_KINDS = "biuf"  # bool, integer and float arrays; no complex, string or object
+_PROBE_SAMPLES = 512
+
+
 def _json_safe(v):
+    if isinstance(v, (np.bool_,)):
+        return bool(v)
     if isinstance(v, (np.integer,)):
         return int(v)
     if isinstance(v, (np.floating,)):
@@ -336,6 +417,13 @@ def _json_safe(v):
     if isinstance(v, dict):
         return {str(k): _json_safe(x) for k, x in v.items()}
     return v
+
+
+def _canonical_sha256(doc: dict) -> str:
+    """SHA-256 of ``doc`` without its ``sha256`` key, as canonical JSON (sorted keys, compact)."""
+    body = {k: v for k, v in doc.items() if k != "sha256"}
+    text = json.dumps(body, sort_keys=True, separators=(",", ":"), allow_nan=False)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
 def _paths(path) -> tuple[Path, Path]:
@@ -366,17 +454,24 @@ def save_model(model: Compensator, path: str | os.PathLike) -> tuple[Path, Path]
     """Save a fitted model as ``path.json`` + ``path.npz``; returns both paths.
 
     The JSON holds the format name and version, the method name, its hyperparameters, its scalar
-    learned state and the SHA-256 of the NPZ, so that a tampered or mismatched pair is refused.
+    learned state, the name, shape and dtype of every array in the NPZ, the SHA-256 of the NPZ and
+    a SHA-256 of the JSON's own content, so that an edited, damaged or mismatched pair is refused
+    by :func:`load_model`. A ``random_state`` given as a numpy Generator is saved as None (a
+    loaded model compensates without it; give it a seed before fitting it again).
     """
     model._check_fitted()
     info, arrays = model._state()
-    rs = model.get_params().get("random_state")
-    params = {k: v for k, v in model.get_params().items()
-              if not isinstance(v, np.random.Generator)}
-    if isinstance(rs, np.random.Generator):
+    params = model.get_params()
+    if isinstance(params.get("random_state"), (np.random.Generator, np.random.BitGenerator,
+                                               np.random.SeedSequence)):
         params["random_state"] = None
+    arrays = {k: np.asarray(v) for k, v in arrays.items()}
+    for k, a in arrays.items():
+        if a.dtype.kind not in _ARRAY_KINDS:
+            raise TypeError(f"{model.name}: learned array {k!r} has dtype {a.dtype}; only boolean, "
+                            "integer and real arrays are saved")
     buf = io.BytesIO()
-    np.savez(buf, **{k: np.asarray(v) for k, v in arrays.items()})
+    np.savez(buf, **arrays)
     npz = buf.getvalue()
     doc = {
         "format": FORMAT_NAME,
@@ -384,50 +479,208 @@ def save_model(model: Compensator, path: str | os.PathLike) -> tuple[Path, Path]
         "method": model.name,
         "hyperparameters": _json_safe(params),
         "state": _json_safe(info),
+        "arrays": {k: {"shape": list(a.shape), "dtype": a.dtype.str} for k, a in arrays.items()},
         "arrays_sha256": hashlib.sha256(npz).hexdigest(),
     }
+    try:
+        doc["sha256"] = _canonical_sha256(doc)
+        text = json.dumps(doc, indent=2, allow_nan=False)
+    except ValueError as exc:  # NaN or inf in a hyperparameter or scalar state
+        raise ValueError(f"{model.name}: cannot save a non-finite number in the JSON part "
+                         f"(hyperparameters or scalar state): {exc}") from None
     jpath, npath = _paths(path)
     atomic_write_bytes(npath, npz)
-    atomic_write_bytes(jpath, json.dumps(doc, indent=2, allow_nan=False).encode())
+    atomic_write_bytes(jpath, text.encode("utf-8"))
     return jpath, npath
 
 
-def load_model(path: str | os.PathLike) -> Compensator:
-    """Load a model saved by :func:`save_model`; refuses tampered or wrong-version files."""
-    jpath, npath = _paths(path)
-    for p in (jpath, npath):
-        if not p.exists():
-            raise ModelFileError(f"{p}: file not found (a saved model is a .json + .npz pair)")
+class _StateDict(dict):
+    """A dict whose missing keys are a :class:`ModelFileError` naming the file and the key."""
+
+    def __init__(self, values: dict, where: str, what: str):
+        super().__init__(values)
+        self._where = where
+        self._what = what
+
+    def __missing__(self, key):
+        raise ModelFileError(f"{self._where}: {self._what} {key!r} is missing "
+                             f"(present: {sorted(self)})")
+
+
+def _read_json(jpath: Path) -> dict:
     try:
-        doc = json.loads(jpath.read_text())
+        raw = jpath.read_bytes()
+    except OSError as exc:
+        raise ModelFileError(f"{jpath}: cannot be read ({exc.strerror or exc})") from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ModelFileError(f"{jpath}: not a saved model, not UTF-8 text (byte {exc.start} is "
+                             f"0x{raw[exc.start]:02x})") from None
+    try:
+        doc = json.loads(text)
     except json.JSONDecodeError as exc:
         raise ModelFileError(f"{jpath}: not valid JSON ({exc})") from None
-    if not isinstance(doc, dict) or doc.get("format") != FORMAT_NAME:
+    except RecursionError:
+        raise ModelFileError(f"{jpath}: not a saved model (JSON nested too deeply)") from None
+    if not isinstance(doc, dict):
+        raise ModelFileError(f"{jpath}: expected a JSON object, got {type(doc).__name__}")
+    return doc
+
+
+def _check_header(doc: dict, jpath: Path) -> None:
+    if doc.get("format") != FORMAT_NAME:
         raise ModelFileError(f"{jpath}: key 'format' must be {FORMAT_NAME!r}, "
-                             f"got {doc.get('format') if isinstance(doc, dict) else doc!r}")
-    if doc.get("version") != FORMAT_VERSION:
-        raise ModelFileError(f"{jpath}: key 'version' is {doc.get('version')!r}; this fogcomp "
-                             f"reads version {FORMAT_VERSION}")
-    for key in ("method", "hyperparameters", "state", "arrays_sha256"):
+                             f"got {doc.get('format')!r}")
+    version = doc.get("version")
+    if version != FORMAT_VERSION or isinstance(version, bool):
+        older = (isinstance(version, int) and not isinstance(version, bool)
+                 and version < FORMAT_VERSION)
+        hint = ("; it was saved by an older fogcomp, whose files do not protect their JSON "
+                "against edits: fit the method again and save it" if older else "")
+        raise ModelFileError(f"{jpath}: key 'version' is {version!r}; this fogcomp reads "
+                             f"version {FORMAT_VERSION}{hint}")
+    types = {"method": str, "hyperparameters": dict, "state": dict, "arrays": dict,
+             "arrays_sha256": str, "sha256": str}
+    for key, typ in types.items():
         if key not in doc:
             raise ModelFileError(f"{jpath}: missing key {key!r}")
-    npz = npath.read_bytes()
+        if not isinstance(doc[key], typ):
+            raise ModelFileError(f"{jpath}: key {key!r} must be a JSON "
+                                 f"{ {str: 'string', dict: 'object'}[typ] }, "
+                                 f"got {type(doc[key]).__name__}")
+    unknown = sorted(set(doc) - set(types) - {"format", "version"})
+    if unknown:
+        raise ModelFileError(f"{jpath}: unknown key(s) {unknown}")
+
+
+def _read_arrays(npz: bytes, npath: Path) -> dict[str, np.ndarray]:
+    try:
+        z = np.load(io.BytesIO(npz), allow_pickle=False)
+        if not isinstance(z, np.lib.npyio.NpzFile):
+            raise ValueError(f"holds a single {type(z).__name__}, not an .npz archive of arrays")
+        with z:
+            return {k: z[k] for k in z.files}
+    except (ValueError, OSError, EOFError, KeyError, zipfile.BadZipFile, zlib.error) as exc:
+        raise ModelFileError(f"{npath}: cannot be read as an .npz archive without pickle "
+                             f"({type(exc).__name__}: {exc})") from None
+
+
+def _check_manifest(arrays: dict, manifest: dict, jpath: Path, npath: Path) -> None:
+    missing = sorted(set(manifest) - set(arrays))
+    if missing:
+        raise ModelFileError(f"{npath}: array(s) {missing} listed in {jpath} key 'arrays' are "
+                             "missing")
+    extra = sorted(set(arrays) - set(manifest))
+    if extra:
+        raise ModelFileError(f"{npath}: array(s) {extra} are not listed in {jpath} key 'arrays'")
+    for k, a in arrays.items():
+        spec = manifest[k]
+        if not (isinstance(spec, dict) and isinstance(spec.get("shape"), list)
+                and isinstance(spec.get("dtype"), str)):
+            raise ModelFileError(f"{jpath}: key 'arrays.{k}' must be "
+                                 "{\"shape\": [...], \"dtype\": \"...\"}")
+        if list(a.shape) != spec["shape"]:
+            raise ModelFileError(f"{npath}: array {k!r} has shape {a.shape}, the model was saved "
+                                 f"with shape {tuple(spec['shape'])}")
+        if a.dtype.str != spec["dtype"] or a.dtype.kind not in _ARRAY_KINDS:
+            raise ModelFileError(f"{npath}: array {k!r} has dtype {a.dtype}, the model was saved "
+                                 f"with dtype {spec['dtype']}")
+
+
+def _probe_record(model: Compensator) -> GyroData:
+    """A short synthetic record with every input a method may need, to exercise a loaded model."""
+    n = _PROBE_SAMPLES
+    rng = np.random.default_rng(20240229)
+    fs = getattr(model, "fs_", None)
+    fs = float(fs) if isinstance(fs, (int, float)) and np.isfinite(fs) and fs > 0 else 10.0
+    t = np.arange(n) / fs
+    phase = 2 * np.pi * np.arange(n) / n
+    g = np.stack([np.cos(phase) * 0.6, np.sin(phase) * 0.6, np.full(n, 0.8)], axis=1)
+    temp = 25.0 + 5.0 * np.sin(phase)
+    return GyroData(rate=1e-4 * rng.standard_normal(n) + 1e-3 * np.sin(phase), fs=fs, g=g,
+                    temp=temp, temp_rate=np.gradient(temp, t))
+
+
+def load_model(path: str | os.PathLike) -> Compensator:
+    """Load a model saved by :func:`save_model`.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The common stem of the pair (``model`` for ``model.json`` + ``model.npz``), or either file.
+
+    Returns
+    -------
+    Compensator
+        The fitted model.
+
+    Raises
+    ------
+    ModelFileError
+        Naming the file and what is wrong: missing, not JSON, another format or version, the
+        JSON edited after saving (its SHA-256), the NPZ damaged or from another save, a
+        hyperparameter of the wrong type or value, a learned array of the wrong shape, a state
+        key missing, or a restored model that cannot compensate.
+    """
+    jpath, npath = _paths(path)
+    for p in (jpath, npath):
+        if not p.is_file():
+            raise ModelFileError(f"{p}: file not found (a saved model is a .json + .npz pair)")
+    doc = _read_json(jpath)
+    _check_header(doc, jpath)
+    if _canonical_sha256(doc) != doc["sha256"]:
+        raise ModelFileError(f"{jpath}: content does not match its checksum, key 'sha256' (the "
+                             "JSON was edited or damaged after saving)")
+    try:
+        npz = npath.read_bytes()
+    except OSError as exc:
+        raise ModelFileError(f"{npath}: cannot be read ({exc.strerror or exc})") from None
     if hashlib.sha256(npz).hexdigest() != doc["arrays_sha256"]:
         raise ModelFileError(f"{npath}: checksum does not match {jpath} key 'arrays_sha256' "
                              "(file modified or from another save)")
+    method = doc["method"]
     try:
-        get_method(doc["method"])
+        cls = get_method(method)
     except KeyError as exc:
         raise ModelFileError(f"{jpath}: key 'method': {exc.args[0]}") from None
+
+    import inspect
+
+    hp = doc["hyperparameters"]
+    expected = [p for p in inspect.signature(cls.__init__).parameters if p != "self"]
+    missing = [k for k in expected if k not in hp]
+    if missing:
+        raise ModelFileError(f"{jpath}: key 'hyperparameters' lacks {missing} of method "
+                             f"{method!r} (no default is assumed for a saved model)")
     try:
-        model = make_method(doc["method"], **doc["hyperparameters"])
+        model = make_method(method, **hp)  # refuses unknown names, checks every value
     except (TypeError, ValueError) as exc:
-        raise ModelFileError(f"{jpath}: key 'hyperparameters': {exc}") from None
+        raise ModelFileError(f"{jpath}: key 'hyperparameters' of method {method!r}: "
+                             f"{exc}") from None
+
+    arrays = _read_arrays(npz, npath)
+    _check_manifest(arrays, doc["arrays"], jpath, npath)
     try:
-        with np.load(io.BytesIO(npz), allow_pickle=False) as z:
-            arrays = {k: z[k] for k in z.files}
-    except ValueError as exc:
-        raise ModelFileError(f"{npath}: cannot be read without pickle ({exc})") from None
-    model._restore(doc["state"], arrays)
+        model._restore(_StateDict(doc["state"], str(jpath), "key 'state' entry"),
+                       _StateDict(arrays, str(npath), "array"))
+    except ModelFileError:
+        raise
+    except (KeyError, TypeError, ValueError, IndexError, AttributeError) as exc:
+        raise ModelFileError(f"{jpath}: key 'state' cannot be restored for method {method!r} "
+                             f"({type(exc).__name__}: {exc})") from None
     model.fitted_ = True
+    # A restored state can still be inconsistent (an array of another shape than the
+    # hyperparameters imply, a NaN weight): compensate a probe record now rather than fail later.
+    import warnings
+
+    probe = _probe_record(model)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            model.estimate_error(probe)
+    except Exception as exc:  # noqa: BLE001 (any failure here means an unusable file)
+        raise ModelFileError(f"{jpath} + {npath.name}: the restored {method!r} model cannot "
+                             f"compensate a test record ({type(exc).__name__}: {exc}); the "
+                             "learned state is inconsistent") from None
     return model

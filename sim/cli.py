@@ -149,6 +149,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="simulated seconds per measurement (default 600)")
     b.add_argument("--repeats", type=int, default=5, help="repeats; medians are quoted")
     b.set_defaults(func=_cmd_bench)
+    __import__("fogbench.reallog").reallog.add_commands(sub)  # h13 local wiring, see report
     return p
 
 

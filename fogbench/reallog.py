@@ -192,8 +192,8 @@ def read_log(path, *, mapping=None, channels=None, fs=None, gaps: str = "refuse"
     mapping : list of str, optional
         ``--column`` items, ``CHANNEL=HEADER:UNIT``.
     channels : list of str, optional
-        The channels needed (``gyro_x`` ...); None: every channel the header names. Each must
-        be present.
+        The channels needed (``gyro_x`` ...; ``gyro_*``: every gyro channel, at least one);
+        None: every channel the header names. Each must be present.
     fs : float, optional
         Sample rate, Hz; required when there is no time column, checked against it otherwise.
     gaps : {"refuse", "split"}
@@ -221,11 +221,16 @@ def read_log(path, *, mapping=None, channels=None, fs=None, gaps: str = "refuse"
     if len(frame) == 0:
         raise LogError(f"{path}: no data rows")
     found: dict[str, tuple[str, str]] = {}
+    mapped_sources = {src for src, _ in mapped.values()}
     for col in frame.columns:
         m = _HEADER.match(col)
+        if col in mapped_sources:
+            continue
         if m:
             kind = "acc" if m.group(1) == "accel" else m.group(1)
             ch = f"{kind}_{m.group(2)}"
+            if ch in mapped:
+                continue
             found[ch] = (col, _check_unit(path, ch, col, m.group(3) and m.group(3).lower()))
         elif col.startswith("time_") or col == "time":
             found["time"] = (col, _check_unit(path, "time", col, col[5:].lower() or None))
@@ -237,6 +242,14 @@ def read_log(path, *, mapping=None, channels=None, fs=None, gaps: str = "refuse"
                            f"{', '.join(frame.columns)}")
         found[ch] = (src, _check_unit(path, ch, src, unit))
     wanted = list(channels) if channels is not None else [c for c in found if c != "time"]
+    if "gyro_*" in wanted:
+        gyros = sorted(c for c in found if c.startswith("gyro_"))
+        if not gyros:
+            raise LogError(f"{path}: no gyro column (e.g. gyro_x_dps); columns: "
+                           f"{', '.join(frame.columns)}; map another name with --column "
+                           "gyro_x=HEADER:UNIT")
+        i = wanted.index("gyro_*")
+        wanted[i:i + 1] = [g for g in gyros if g not in wanted]
     for ch in wanted:
         if ch not in found:
             raise LogError(f"{path}: missing column for {ch} (e.g. {ch}_"
@@ -540,13 +553,10 @@ def _cmd_allan(args) -> int:
                 if not re.fullmatch(r"gyro_[xyz]", c):
                     raise LogError(f"--columns: {c!r} is not a gyro channel (gyro_x, gyro_y, "
                                    "gyro_z)")
-        log = read_log(args.log, mapping=args.column, channels=chans, fs=args.fs,
+        log = read_log(args.log, mapping=args.column, channels=chans or ["gyro_*"], fs=args.fs,
                        gaps=args.gaps, time_tolerance=args.time_tolerance, min_samples=9)
         if chans is None:
             chans = sorted(c for c in log.channels if c.startswith("gyro_"))
-            if not chans:
-                raise LogError(f"{args.log}: no gyro column (gyro_x_dps, ...); columns: "
-                               f"{', '.join(log.frame.columns)}")
         src = args.log
         for ch in chans:
             if log.units[ch] == "au":
@@ -637,20 +647,15 @@ def _cmd_calibrate(args) -> int:
     header_chans = None
     if args.axis:
         header_chans = list(axes)
-    need = list(header_chans or [])
+    need = list(header_chans or ["gyro_*"])
     if "g" in cls.requires:
         need += ["acc_x", "acc_y", "acc_z"]
     if "temp" in cls.requires or "temp_rate" in cls.requires:
         need += ["temp"]
-    log = read_log(args.log, mapping=args.column, channels=need or None, fs=args.fs,
+    log = read_log(args.log, mapping=args.column, channels=need, fs=args.fs,
                    gaps=args.gaps, time_tolerance=args.time_tolerance, min_samples=16)
     if header_chans is None:
         axes = sorted(c for c in log.channels if c.startswith("gyro_"))
-        if not axes:
-            raise LogError(f"{args.log}: no gyro column (gyro_x_dps, ...)")
-        for extra in need:
-            if extra not in log.channels:
-                raise LogError(f"{args.log}: missing column for {extra}")
     ref = None
     if args.reference:
         m = re.fullmatch(r"(.+)_(dps|rps|dph|deg_s|rad_s)", args.reference)

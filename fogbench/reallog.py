@@ -275,7 +275,7 @@ def read_log(path, *, mapping=None, channels=None, fs=None, gaps: str = "refuse"
             i = int(bad[0])
             word = "duplicated" if dt[i] == 0 else "not increasing"
             raise LogError(f"{path}: line {first_line + i + 1}, column {src!r}: time {word} "
-                           f"({t[i + 1]!r} after {t[i]!r})")
+                           f"({t[i + 1]:.10g} after {t[i]:.10g})")
         step = float(np.median(dt))
         fs_t = 1.0 / step
         gap = dt > 1.5 * step
@@ -291,11 +291,16 @@ def read_log(path, *, mapping=None, channels=None, fs=None, gaps: str = "refuse"
             if gaps == "refuse":
                 raise LogError(f"{path}: line {first_line + i + 1}, column {src!r}: gap of "
                                f"{dt[i]:.6g} s ({dt[i] / step - 1:.0f} missing samples at "
-                               f"{step:.6g} s) after time {t[i]!r}; {int(gap.sum())} gap(s) "
+                               f"{step:.6g} s) after time {t[i]:.10g}; {int(gap.sum())} gap(s) "
                                "in all; use --gaps split to analyse the pieces separately")
             cuts = np.flatnonzero(gap) + 1
             bounds = [0, *cuts.tolist(), n]
             segments = [(a, b) for a, b in zip(bounds[:-1], bounds[1:])]
+        # The mean interval of the longest gap-free piece: far less sensitive than the median
+        # to timestamps rounded to a few decimals.
+        a0, b0 = max(segments, key=lambda ab: ab[1] - ab[0])
+        if b0 - a0 >= 2:
+            fs_t = (b0 - a0 - 1) / (t[b0 - 1] - t[a0])
         if fs is not None and not fs_is_fallback and abs(fs / fs_t - 1.0) > time_tolerance:
             raise LogError(f"{path}: --fs {fs:g} Hz disagrees with the time column "
                            f"{src!r}, which gives {fs_t:.6g} Hz")
@@ -631,7 +636,7 @@ def _cmd_calibrate(args) -> int:
     if method == "ferraris":
         return _calibrate_ferraris(args, out, manifest)
     cls = fogcomp.get_method(method)
-    refs = [x for x in (args.reference, args.rate_dps, args.static) if x not in (None, False)]
+    refs = [x for x in (args.reference, args.rate_dps, args.static or None) if x is not None]
     if cls.supervised and len(refs) != 1:
         raise LogError(f"calibrate {method}: a supervised method needs exactly one of "
                        "--reference COLUMN, --rate-dps RATE, --static (with --latitude-deg, "
@@ -791,9 +796,10 @@ def _cmd_compensate(args) -> int:
 
     import fogcomp
 
-    doc, mpath = _load_manifest(args.model)
     out = _Outputs(overwrite=True)            # --out CLEAN.csv is what the user asked for
-    target = out.target(Path(args.out), (args.log, mpath))
+    target = out.target(Path(args.out), (args.log,))
+    doc, mpath = _load_manifest(args.model)
+    out.target(target, (mpath,))
     frame_new = {}
     if doc["format"] == "fogbench-triad-model":
         from fogcomp.calibration import TriadCalibration

@@ -80,4 +80,8 @@ def main(seconds: float = 600.0, repeats: int = 5) -> int:
     print(f"  spread (min..max): bare {min(bare) / 1e6:.3f}..{max(bare) / 1e6:.3f}, "
           f"rig {min(rig) / 1e6:.3f}..{max(rig) / 1e6:.3f}, "
           f"fog {min(fog) / 1e6:.3f}..{max(fog) / 1e6:.3f} M/s")
+    from .bench_allan import bench_allan
+
+    print()
+    bench_allan(n=10**7, repeats=min(repeats, 3))
     return 0

@@ -209,6 +209,9 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--repeats", type=_number(int, 1, hi=1000), default=5,
                    help="repeats; medians are quoted (default 5)")
     b.set_defaults(func=_cmd_bench)
+    from .reallog import add_commands
+
+    add_commands(sub)  # allan, calibrate, compensate: a user's own recorded logs
     return p
 
 

@@ -48,6 +48,17 @@ __all__ = [
     "allan_report",
     "NOISE_TERMS",
     "FLICKER_FLOOR_FACTOR",
+    "ONE_SIGMA_CI",
+    "ALPHA_OF_TERM",
+    "edf_greenhall",
+    "confidence_interval",
+    "AllanCI",
+    "oadev_ci",
+    "NoiseTerm",
+    "NoiseIdentification",
+    "identify_noise_terms",
+    "noise_model_adev",
+    "allan_analysis",
 ]
 
 #: sqrt(2 ln 2 / pi) = 0.6643: the Allan deviation of flicker rate noise of coefficient B is
@@ -196,9 +207,15 @@ def oadev_details(rate, fs: float, taus=None) -> AllanDeviation:
     np.cumsum(y - y.mean(), out=x[1:])
     x /= fs
     avar = np.empty(m.shape[0])
+    buf = np.empty(n + 1)             # two work buffers reused at every tau: no allocation per
+    tmp = np.empty(n + 1)             # tau, one pass of each ufunc over memory
     for i, mi in enumerate(m):
-        d = x[2 * mi:] - 2.0 * x[mi:n + 1 - mi] + x[:n + 1 - 2 * mi]
-        avar[i] = np.dot(d, d) / d.shape[0]
+        k = n + 1 - 2 * mi
+        d, t2 = buf[:k], tmp[:k]
+        np.add(x[2 * mi:], x[:k], out=d)
+        np.multiply(x[mi:n + 1 - mi], 2.0, out=t2)
+        np.subtract(d, t2, out=d)
+        avar[i] = np.dot(d, d) / k
     t = m / fs
     n_terms = n + 1 - 2 * m
     avar /= 2.0 * t**2
@@ -483,3 +500,617 @@ def allan_report(rate, fs: float, taus=None) -> tuple[np.ndarray, np.ndarray, No
     """
     d = oadev_details(rate, fs, taus)
     return d.taus, d.adev, identify_noise(d.taus, d.adev, d.adev_err)
+
+
+# ---------------------------------------------------------------------------------------------
+# Confidence intervals: equivalent degrees of freedom of the overlapping Allan variance
+#: Probability content of a one-sigma interval, erf(1/sqrt(2)) = 0.6827.
+ONE_SIGMA_CI = math.erf(1.0 / math.sqrt(2.0))
+
+#: Power-law exponent alpha of the rate noise of each term, S_rate(f) ~ f**alpha (IEEE Std 952
+#: Table C.1 with NIST SP 1065 Table 5's naming: white angle = "white PM" alpha = +2, white rate
+#: = "white FM" 0, flicker rate = -1, random-walk rate = -2). The rate ramp is a drift, not a
+#: power-law noise, and alpha = -3 has no Allan-variance EDF (Greenhall needs alpha + 2d > 1); it
+#: is given the nearest admissible value, -2, which has the fewest degrees of freedom (widest
+#: interval) of the admissible ones.
+ALPHA_OF_TERM = {"Q": 2, "N": 0, "B": -1, "K": -2, "R": -2}
+
+# Greenhall & Riley (2004), Table 2: (a0, a1) of 1/edf = (a0 - a1/r)/r for unmodified
+# variances with many terms, by (alpha, d); and Table 3: (b0, b1) of the alpha = +1 correction.
+_GR_TABLE2 = {
+    (1, 1): (78.6, 25.2), (1, 2): (790.0, 410.0), (1, 3): (9950.0, 6520.0),
+    (0, 1): (2.0 / 3.0, 1.0 / 6.0), (0, 2): (2.0 / 3.0, 1.0 / 3.0), (0, 3): (7.0 / 9.0, 0.5),
+    (-1, 2): (0.852, 0.375), (-1, 3): (0.997, 0.617),
+    (-2, 2): (1.079, 0.368), (-2, 3): (1.033, 0.607),
+    (-3, 3): (1.053, 0.553), (-4, 3): (1.302, 0.535),
+}
+_GR_TABLE3 = {1: (6.0, 4.0), 2: (15.23, 12.0), 3: (47.8, 40.0)}
+_GR_JMAX = 100
+
+
+def _gr_sw(t, alpha: int) -> np.ndarray:
+    """Greenhall & Riley (2004) eq. 7: the generalised autocovariance of the phase, up to a
+    constant factor that cancels in the EDF."""
+    t = np.abs(np.asarray(t, dtype=float))
+    if alpha in (2, 0, -2, -4):
+        power = {2: 1, 0: 3, -2: 5, -4: 7}[alpha]
+        return -t if alpha == 2 else t**power
+    power = {1: 2, -1: 4, -3: 6}[alpha]
+    out = np.zeros_like(t)
+    pos = t > 0
+    out[pos] = t[pos] ** power * np.log(t[pos])
+    return out
+
+
+def _gr_sx(t, f: float, alpha: int) -> np.ndarray:
+    """Eq. 8: the filter of the (unmodified, F = m) or infinitely fine (F = inf) variance."""
+    if math.isinf(f):
+        return _gr_sw(t, alpha + 2)
+    return f * f * (2.0 * _gr_sw(t, alpha) - _gr_sw(t - 1.0 / f, alpha)
+                    - _gr_sw(t + 1.0 / f, alpha))
+
+
+def _gr_sz(t, f: float, alpha: int, d: int) -> np.ndarray:
+    """Eq. 9: the d-th difference, sum over k = -d..d of (-1)^k C(2d, d+k) sx(t + k)."""
+    t = np.asarray(t, dtype=float)
+    out = np.zeros_like(t)
+    for k in range(-d, d + 1):
+        out += (-1) ** abs(k) * math.comb(2 * d, d + k) * _gr_sx(t + k, f, alpha)
+    return out
+
+
+def _gr_basic_sum(j_terms: int, m_terms: float, s: float, f: float, alpha: int, d: int) -> float:
+    """Eq. 10: sz(0)^2 + (1 - J/M) sz(J/S)^2 + 2 sum_{j=1}^{J-1} (1 - j/M) sz(j/S)^2."""
+    j = np.arange(1, int(j_terms), dtype=float)
+    sz_j = _gr_sz(j / s, f, alpha, d)
+    first = float(_gr_sz(0.0, f, alpha, d)) ** 2
+    second = (1.0 - j_terms / m_terms) * float(_gr_sz(j_terms / s, f, alpha, d)) ** 2
+    return first + second + float(2.0 * np.sum((1.0 - j / m_terms) * sz_j**2))
+
+
+def edf_greenhall(alpha: int, m: int, n_phase: int, d: int = 2,
+                  overlapping: bool = True) -> float:
+    """Equivalent degrees of freedom of an unmodified d-th difference variance estimate.
+
+    Greenhall & Riley's algorithm (2004) for the chi-squared EDF of the Allan (d = 2),
+    first-difference (d = 1) or Hadamard (d = 3) variance, fully overlapping or not, for
+    power-law noise of exponent ``alpha``; NIST SP 1065 section 5.3 recommends it for the
+    overlapping Allan deviation. The same algorithm as ``allantools.ci.edf_greenhall`` (checked
+    against it in the tests), with one difference: for white angle noise (alpha = +2) with at most
+    ``d`` independent clusters, where allantools raises ``NotImplementedError``, the exact sum
+    (eq. 10 with J = M) is used.
+
+    Parameters
+    ----------
+    alpha : int
+        Exponent of the rate (fractional-frequency) noise PSD, S(f) ~ f**alpha, one of
+        +2, +1, 0, -1, -2, -3, -4 with ``alpha + 2 d > 1`` (see :data:`ALPHA_OF_TERM`).
+    m : int
+        Averaging factor, tau = m / fs.
+    n_phase : int
+        Number of phase (integrated angle) points, ``n + 1`` for ``n`` rate samples.
+    d : int, optional
+        Order of the difference, 1, 2 (Allan, default) or 3.
+    overlapping : bool, optional
+        True for the fully overlapping estimator (stride 1 sample), False for stride m.
+
+    Returns
+    -------
+    float
+        The equivalent degrees of freedom.
+
+    References
+    ----------
+    .. [1] C. A. Greenhall, W. J. Riley, "Uncertainty of stability variances based on finite
+       differences", Proc. 35th PTTI Meeting (2003/2004), eqs. 7-13, Tables 2 and 3.
+    .. [2] W. J. Riley, NIST SP 1065 (2008), section 5.3.
+    """
+    if isinstance(alpha, bool) or int(alpha) != alpha or int(alpha) not in range(-4, 3):
+        raise ValueError(f"alpha: expected an integer from -4 to +2, got {alpha!r}")
+    alpha = int(alpha)
+    if d not in (1, 2, 3):
+        raise ValueError(f"d: expected 1, 2 or 3, got {d!r}")
+    if alpha + 2 * d <= 1:
+        raise ValueError(f"alpha: the d={d} variance needs alpha + 2d > 1, got alpha={alpha}")
+    if int(m) != m or m < 1:
+        raise ValueError(f"m: expected a positive integer averaging factor, got {m!r}")
+    m = int(m)
+    f = float(m)                                   # unmodified variance: F = m
+    s = float(m) if overlapping else 1.0           # stride factor
+    big_l = m / f + m * d                          # filter length in phase samples
+    big_m = 1.0 + math.floor(s * (n_phase - big_l) / m)   # number of summands
+    if big_m < 1:
+        raise ValueError(f"n_phase: {n_phase} phase points are too few for m={m}, d={d} "
+                         f"(need at least {int(big_l) + 1})")
+    j = min(big_m, (d + 1) * s)
+    r = big_m / s
+    if alpha <= 0:
+        if j <= _GR_JMAX:
+            fp = f if m * (d + 1) <= _GR_JMAX else math.inf
+            inv = _gr_basic_sum(j, big_m, s, fp, alpha, d) / (float(_gr_sz(0.0, fp, alpha, d))**2
+                                                               * big_m)
+        elif r > d + 1:
+            a0, a1 = _GR_TABLE2[(alpha, d)]
+            inv = (a0 - a1 / r) / r
+        else:
+            mp = _GR_JMAX / r
+            inv = (_gr_basic_sum(_GR_JMAX, _GR_JMAX, mp, math.inf, alpha, d)
+                   / (float(_gr_sz(0.0, math.inf, alpha, d))**2 * _GR_JMAX))
+        return 1.0 / inv
+    if alpha == 1:
+        if j <= _GR_JMAX:
+            inv = _gr_basic_sum(j, big_m, s, f, 1, d) / (float(_gr_sz(0.0, f, 1, d))**2 * big_m)
+        elif r > d + 1:
+            a0, a1 = _GR_TABLE2[(1, d)]
+            b0, b1 = _GR_TABLE3[d]
+            inv = (a0 - a1 / r) / ((b0 + b1 * math.log(m)) ** 2 * r)
+        else:
+            mp = _GR_JMAX / r
+            b0, b1 = _GR_TABLE3[d]
+            inv = (_gr_basic_sum(_GR_JMAX, _GR_JMAX, mp, mp, 1, d)
+                   / ((b0 + b1 * math.log(m)) ** 2 * _GR_JMAX))
+        return 1.0 / inv
+    # alpha = +2 (white phase): case 4
+    if math.ceil(r) <= d:
+        inv = _gr_basic_sum(big_m, big_m, s, f, 2, d) / (float(_gr_sz(0.0, f, 2, d))**2 * big_m)
+    else:
+        a0 = math.comb(4 * d, 2 * d) / math.comb(2 * d, d) ** 2
+        inv = (a0 - (d / 2.0) / r) / big_m
+    return 1.0 / inv
+
+
+def confidence_interval(dev, edf, ci: float = ONE_SIGMA_CI) -> tuple[np.ndarray, np.ndarray]:
+    """Two-sided chi-squared confidence interval of a deviation with ``edf`` degrees of freedom.
+
+    NIST SP 1065 eq. 45: ``var_low = edf var / chi2(1 - p, edf)``, ``var_high = edf var /
+    chi2(p, edf)``, p = (1 - ci)/2.
+
+    Parameters
+    ----------
+    dev : float or ndarray, shape (k,)
+        The deviation(s), any unit.
+    edf : float or ndarray, shape (k,)
+        Equivalent degrees of freedom (positive).
+    ci : float, optional
+        Probability content of the interval, 0 < ci < 1 (default 0.6827, one sigma).
+
+    Returns
+    -------
+    low, high : ndarray, shape (k,)
+        The bounds, in the unit of ``dev``.
+    """
+    from scipy.stats import chi2
+
+    if not (isinstance(ci, (int, float, np.floating)) and 0.0 < ci < 1.0):
+        raise ValueError(f"ci: expected a probability between 0 and 1, got {ci!r}")
+    dev = np.asarray(dev, dtype=float)
+    edf = np.asarray(edf, dtype=float)
+    if np.any(~np.isfinite(edf)) or np.any(edf <= 0):
+        raise ValueError("edf: expected positive finite degrees of freedom")
+    p = (1.0 - ci) / 2.0
+    low = dev * np.sqrt(edf / chi2.ppf(1.0 - p, edf))
+    high = dev * np.sqrt(edf / chi2.ppf(p, edf))
+    return low, high
+
+
+@dataclass(frozen=True)
+class AllanCI:
+    """An overlapping Allan deviation with chi-squared confidence intervals.
+
+    Attributes
+    ----------
+    taus : ndarray, shape (k,)
+        Averaging times, s.
+    adev : ndarray, shape (k,)
+        Overlapping Allan deviation, unit of the rate signal (rad/s).
+    low, high : ndarray, shape (k,)
+        Bounds of the ``ci`` confidence interval, same unit.
+    edf : ndarray, shape (k,)
+        Equivalent degrees of freedom (Greenhall & Riley 2004).
+    alpha : ndarray of int, shape (k,)
+        Noise exponent assumed at each tau (:data:`ALPHA_OF_TERM` of the leading term).
+    ci : float
+        Probability content of the interval.
+    m : ndarray of int, shape (k,)
+        Averaging factors.
+    n : int
+        Number of rate samples.
+    fs : float
+        Sample rate, Hz.
+    """
+
+    taus: np.ndarray
+    adev: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
+    edf: np.ndarray
+    alpha: np.ndarray
+    ci: float
+    m: np.ndarray
+    n: int
+    fs: float
+
+    @property
+    def sigma(self) -> np.ndarray:
+        """Approximate one-sigma uncertainty of ``adev``, shape (k,): half the width of the
+        interval scaled to one sigma (a normal approximation of the chi-squared interval)."""
+        from scipy.stats import norm
+
+        return (self.high - self.low) / (2.0 * norm.ppf(0.5 + self.ci / 2.0))
+
+
+def oadev_ci(rate, fs: float, taus=None, *, alpha=None, ci: float = ONE_SIGMA_CI) -> AllanCI:
+    """Overlapping Allan deviation with confidence intervals from the EDF of its noise type.
+
+    Parameters
+    ----------
+    rate : array_like, shape (n,)
+        Rate signal, rad/s. At least 3 finite samples.
+    fs : float
+        Sample rate, Hz.
+    taus : None, 'octave', 'all' or array_like, shape (k,)
+        Averaging times, s; see :func:`oadev_details`.
+    alpha : None, int or array_like of int, shape (k,)
+        Noise exponent at each tau (:data:`ALPHA_OF_TERM`). None (default): at each tau, that
+        of the term that leads the five-term model fitted to the curve
+        (:func:`identify_noise_terms` with the IEEE 952 error bars) -- the noise type is
+        identified from the curve's slopes rather than from the lag-1 autocorrelation
+        allantools uses, because for a gyro the terms are the quantities wanted anyway.
+    ci : float, optional
+        Probability content of the intervals (default 0.6827).
+
+    Returns
+    -------
+    AllanCI
+
+    References
+    ----------
+    .. [1] W. J. Riley, NIST SP 1065 (2008), sections 5.2-5.3 and eq. 45.
+    .. [2] C. A. Greenhall, W. J. Riley, Proc. 35th PTTI (2003), the EDF algorithm.
+    """
+    d = oadev_details(rate, fs, taus)
+    k = d.taus.shape[0]
+    if alpha is None:
+        if k >= 3:
+            alphas = identify_noise_terms(d.taus, d.adev, d.adev_err).alpha(d.taus)
+        else:
+            alphas = np.zeros(k, dtype=int)
+    else:
+        alphas = np.broadcast_to(np.asarray(alpha), (k,)).astype(int)
+    edf = np.array([edf_greenhall(int(a), int(mi), d.n + 1) for a, mi in zip(alphas, d.m)])
+    low, high = confidence_interval(d.adev, edf, ci)
+    return AllanCI(taus=d.taus, adev=d.adev, low=low, high=high, edf=edf,
+                   alpha=np.asarray(alphas, dtype=int), ci=float(ci), m=d.m, n=d.n, fs=d.fs)
+
+
+# ---------------------------------------------------------------------------------------------
+# Noise identification with uncertainties and reasons
+_TERM_NAMES = {"Q": "quantisation", "N": "angle random walk", "B": "bias instability",
+               "K": "rate random walk", "R": "rate ramp"}
+
+
+@dataclass(frozen=True)
+class NoiseTerm:
+    """One IEEE Std 952 noise term as identified from an Allan deviation curve.
+
+    Attributes
+    ----------
+    term : str
+        ``"Q"``, ``"N"``, ``"B"``, ``"K"`` or ``"R"`` (see :class:`NoiseParams` for SI units).
+    status : str
+        ``"identified"``, ``"upper bound"`` (only B: the curve has no floor inside its
+        reliable part; ``value`` is then an upper bound) or ``"not identified"``.
+    value : float or None
+        The coefficient, SI unit; None when not identified.
+    sigma : float or None
+        Its one-sigma uncertainty, SI unit (None when not identified or for an upper bound).
+    reason : str
+        Why it is (not) identified, in words, with the taus involved.
+    tau_range : tuple of float or None
+        (first, last) tau, s, where the term leads the fitted model (for B: the floor's tau).
+    """
+
+    term: str
+    status: str
+    value: float | None
+    sigma: float | None
+    reason: str
+    tau_range: tuple[float, float] | None = None
+
+    @property
+    def name(self) -> str:
+        """The term's name in words (``"angle random walk"``)."""
+        return _TERM_NAMES[self.term]
+
+    def to_datasheet(self) -> dict:
+        """This term in datasheet units: ``{key: value, key + "_sigma": sigma, "status": ...,
+        "reason": ..., "tau_range_s": [..]}`` with ``key`` e.g. ``arw_deg_rt_h``."""
+        unit, key = _DATASHEET[self.term]
+        return {
+            key: None if self.value is None else float(self.value / unit),
+            f"{key}_sigma": None if self.sigma is None else float(self.sigma / unit),
+            "status": self.status,
+            "reason": self.reason,
+            "tau_range_s": None if self.tau_range is None else [float(t) for t in self.tau_range],
+        }
+
+
+@dataclass(frozen=True)
+class NoiseIdentification:
+    """Result of :func:`identify_noise_terms`.
+
+    Attributes
+    ----------
+    terms : dict of str to NoiseTerm
+        Keys ``"Q"``, ``"N"``, ``"B"``, ``"K"``, ``"R"``.
+    fit : dict of str to float
+        Coefficients of the weighted non-negative least-squares fit of the five-term model, SI
+        units (``fit["B"]`` is the fit's flicker coefficient, not the floor reading).
+    fit_sigma : dict of str to float or None
+        Their one-sigma uncertainties (None for a coefficient fitted as zero).
+    chi2_red : float
+        Reduced chi-squared of the fit with the weights used (model error included); the
+        uncertainties are scaled up by ``sqrt(chi2_red)`` when it exceeds 1.
+    """
+
+    terms: dict
+    fit: dict
+    fit_sigma: dict
+    chi2_red: float
+
+    def model_adev(self, taus) -> np.ndarray:
+        """The fitted five-term model's Allan deviation at ``taus`` (s), shape (k,), SI unit."""
+        return noise_model_adev(taus, self.fit)
+
+    def alpha(self, taus) -> np.ndarray:
+        """Noise exponent of the leading fitted term at each of ``taus``, shape (k,), int."""
+        t = np.asarray(taus, dtype=float)
+        contrib = np.column_stack([_BASIS[term](t) * self.fit[term] ** 2 for term in NOISE_TERMS])
+        lead = np.argmax(contrib, axis=1)
+        return np.array([ALPHA_OF_TERM[NOISE_TERMS[i]] for i in lead], dtype=int)
+
+    @property
+    def params(self) -> NoiseParams:
+        """The identified terms as a :class:`NoiseParams` (upper bounds left out)."""
+        v = {t: (x.value if x.status == "identified" else None) for t, x in self.terms.items()}
+        b = self.terms["B"]
+        return NoiseParams(Q=v["Q"], N=v["N"], B=v["B"], K=v["K"], R=v["R"],
+                           B_tau=b.tau_range[0] if b.status == "identified" else None,
+                           fit=dict(self.fit))
+
+    def to_datasheet(self) -> dict:
+        """``{term name: NoiseTerm.to_datasheet()}`` plus the fit, in datasheet units."""
+        out = {_TERM_NAMES[t].replace(" ", "_"): self.terms[t].to_datasheet()
+               for t in ("Q", "N", "B", "K", "R")}
+        out["model_fit"] = {
+            _DATASHEET[t][1]: float(self.fit[t] / _DATASHEET[t][0]) for t in NOISE_TERMS}
+        out["model_fit_sigma"] = {
+            _DATASHEET[t][1]: (None if self.fit_sigma[t] is None
+                               else float(self.fit_sigma[t] / _DATASHEET[t][0]))
+            for t in NOISE_TERMS}
+        out["model_fit_chi2_red"] = float(self.chi2_red)
+        return out
+
+
+def noise_model_adev(taus, coefficients: dict) -> np.ndarray:
+    """Allan deviation of the IEEE Std 952 five-term model.
+
+    Parameters
+    ----------
+    taus : array_like, shape (k,)
+        Averaging times, s.
+    coefficients : dict
+        ``{"Q": rad, "N": rad/sqrt(s), "B": rad/s, "K": rad/s/sqrt(s), "R": rad/s^2}``; missing
+        or None terms count as zero.
+
+    Returns
+    -------
+    ndarray, shape (k,)
+        The model's Allan deviation, rad/s.
+    """
+    t = np.asarray(taus, dtype=float)
+    avar = np.zeros_like(t)
+    for term in NOISE_TERMS:
+        c = coefficients.get(term)
+        if c is not None:
+            avar = avar + _BASIS[term](t) * float(c) ** 2
+    return np.sqrt(avar)
+
+
+def identify_noise_terms(taus, adev, adev_err=None, *, adev_low=None, adev_high=None,
+                         ci: float = 0.95, model_error: float = 0.1, min_snr: float = 3.0,
+                         floor_max_rel_err: float = 0.25) -> NoiseIdentification:
+    """Identify the five IEEE Std 952 noise terms of an Allan deviation curve, each with its
+    uncertainty, or say why it is not identified.
+
+    The fit and the detection rules are those of :func:`identify_noise` (a weighted
+    non-negative least-squares fit of the full model to the Allan variance; a term counts when
+    it leads the model somewhere and stands out of the points' uncertainty by ``min_snr``; B is
+    the floor reading divided by 0.664), so both give the same Q, N, K, R. B differs in one
+    case: a minimum that lies inside the reliable part of the curve (the curve turns up after
+    it) counts as the floor even where white noise still makes most of its variance, as a
+    datasheet reads it (the share is given in the reason). In addition:
+
+    * Uncertainties of Q, N, K, R: the linearised covariance of the weighted fit over the terms
+      it kept, scaled by the reduced chi-squared when that exceeds 1 (the curve departs from the
+      model more than its error bars say), propagated to the square root. Octave-spaced
+      overlapping deviations are positively correlated between neighbouring taus; the
+      covariance ignores that, so treat these as lower bounds of the true scatter.
+    * Uncertainty of B: that of the floor point (``adev_err``, or the interval) divided by 0.664.
+    * When the curve falls as white noise up to its longest reliable tau, B is reported as an
+      ``"upper bound"``, the floor point's value plus two sigma, divided by 0.664.
+
+    Parameters
+    ----------
+    taus : array_like, shape (k,)
+        Averaging times, s, distinct, at least 3.
+    adev : array_like, shape (k,)
+        Allan deviation, rad/s (positive).
+    adev_err : array_like, shape (k,), optional
+        One-sigma uncertainty of ``adev``, rad/s.
+    adev_low, adev_high : array_like, shape (k,), optional
+        Instead of ``adev_err``: the bounds of a ``ci`` confidence interval (e.g. as published
+        with a curve), rad/s; ``adev_err`` is taken as their half-distance over the normal
+        quantile of ``ci``. A lower bound may be negative (normal-approximation intervals).
+    ci : float, optional
+        Probability content of ``adev_low``/``adev_high`` (default 0.95).
+    model_error, min_snr, floor_max_rel_err : float, optional
+        See :func:`identify_noise`.
+
+    Returns
+    -------
+    NoiseIdentification
+
+    References
+    ----------
+    .. [1] IEEE Std 952-1997, Annex C, Table C.1.
+    .. [2] N. El-Sheimy, H. Hou, X. Niu, IEEE Trans. Instrum. Meas. 57(1), 140-149 (2008).
+    """
+    from scipy.stats import norm
+
+    if (adev_low is None) != (adev_high is None):
+        raise ValueError("adev_low, adev_high: give both bounds of the interval or neither")
+    if adev_low is not None:
+        if adev_err is not None:
+            raise ValueError("adev_err: give either adev_err or adev_low/adev_high, not both")
+        if not (isinstance(ci, (int, float, np.floating)) and 0.0 < ci < 1.0):
+            raise ValueError(f"ci: expected a probability between 0 and 1, got {ci!r}")
+        try:
+            lo = np.asarray(adev_low, dtype=float)
+            hi = np.asarray(adev_high, dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"adev_low, adev_high: cannot be read as float arrays ({exc})") \
+                from None
+        if lo.shape != hi.shape:
+            raise ValueError(f"adev_low: shape {lo.shape} must match adev_high {hi.shape}")
+        if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
+            raise ValueError("adev_low, adev_high: expected finite bounds")
+        if np.any(hi < lo):
+            i = int(np.flatnonzero(hi < lo)[0])
+            raise ValueError(f"adev_high: below adev_low at index {i} ({hi[i]} < {lo[i]})")
+        adev_err = (hi - lo) / (2.0 * norm.ppf(0.5 + ci / 2.0))
+    t, a, e = _check_curve(taus, adev, adev_err)
+    for name, v in (("model_error", model_error), ("min_snr", min_snr),
+                    ("floor_max_rel_err", floor_max_rel_err)):
+        if not (isinstance(v, (int, float, np.integer, np.floating)) and np.isfinite(v) and v > 0):
+            raise ValueError(f"{name}: expected a positive finite number, got {v!r}")
+    avar = a**2
+    adev_rel = np.zeros_like(a) if e is None else e / a
+    rel = np.sqrt((2.0 * adev_rel) ** 2 + model_error**2)
+    basis = np.column_stack([_BASIS[term](t) for term in NOISE_TERMS])
+    c = _fit_model(basis, avar, rel)
+    model = basis @ c
+    share = basis * c / model[:, None]
+    fit = {term: float(math.sqrt(c[j])) for j, term in enumerate(NOISE_TERMS)}
+
+    # Covariance of the kept variance coefficients (weights 1/(rel * model), as in the fit).
+    sig = rel * model
+    active = np.flatnonzero(c > 0)
+    resid = (avar - model) / sig
+    dof = t.shape[0] - active.shape[0]
+    chi2_red = float(np.sum(resid**2) / dof) if dof > 0 else float("nan")
+    fit_sigma: dict[str, float | None] = {term: None for term in NOISE_TERMS}
+    if active.shape[0]:
+        aw = basis[:, active] / sig[:, None]
+        norm_c = np.linalg.norm(aw, axis=0)
+        cov = np.linalg.pinv((aw / norm_c).T @ (aw / norm_c)) / np.outer(norm_c, norm_c)
+        if np.isfinite(chi2_red) and chi2_red > 1.0:
+            cov = cov * chi2_red
+        for k, j in enumerate(active):
+            sc = math.sqrt(max(float(cov[k, k]), 0.0))
+            fit_sigma[NOISE_TERMS[j]] = sc / (2.0 * math.sqrt(c[j]))
+
+    terms: dict[str, NoiseTerm] = {}
+    for j, term in enumerate(NOISE_TERMS):
+        if term == "B":
+            continue
+        lead = share[:, j] >= 0.5
+        snr = math.sqrt(float(np.sum((share[lead, j] / rel[lead]) ** 2)))
+        if lead.any() and snr >= min_snr:
+            rng = (float(t[lead][0]), float(t[lead][-1]))
+            terms[term] = NoiseTerm(term, "identified", fit[term], fit_sigma[term],
+                                    f"leads the fitted model at tau {rng[0]:g} ... {rng[1]:g} s "
+                                    f"({snr:.0f} sigma)", rng)
+        elif lead.any():
+            rng = (float(t[lead][0]), float(t[lead][-1]))
+            terms[term] = NoiseTerm(term, "not identified", None, None,
+                                    f"leads at tau {rng[0]:g} ... {rng[1]:g} s but stands out of "
+                                    f"the curve's uncertainty by only {snr:.1f} sigma "
+                                    f"(< {min_snr:g})", rng)
+        else:
+            i = int(np.argmax(share[:, j]))
+            terms[term] = NoiseTerm(term, "not identified", None, None,
+                                    "never the leading term of the fitted model (at most "
+                                    f"{100 * share[i, j]:.0f} % of the variance, at tau "
+                                    f"{t[i]:g} s)")
+
+    reliable = adev_rel <= floor_max_rel_err
+    if not reliable.any():
+        terms["B"] = NoiseTerm("B", "not identified", None, None,
+                               f"no point of the curve is known to {floor_max_rel_err:.0%} "
+                               "or better")
+    else:
+        idx = np.flatnonzero(reliable)
+        i = int(idx[np.argmin(a[idx])])
+        falling = basis[i, 0] * c[0] + basis[i, 1] * c[1]
+        err_i = 0.0 if e is None else float(e[i])
+        if i == 0:
+            terms["B"] = NoiseTerm("B", "not identified", None, None,
+                                   f"the curve's minimum is its first point (tau {t[0]:g} s): "
+                                   "it only rises, there is no floor")
+        elif falling <= 0.5 * avar[i] or i < idx[-1]:
+            white = 100.0 * falling / avar[i]
+            terms["B"] = NoiseTerm("B", "identified", float(a[i] / FLICKER_FLOOR_FACTOR),
+                                   err_i / FLICKER_FLOOR_FACTOR,
+                                   f"floor (minimum) of the curve at tau {t[i]:g} s, divided by "
+                                   f"0.664; the fitted Q and N lines make {white:.0f} % of the "
+                                   "variance there (a floor reading bounds the flicker "
+                                   "coefficient from above; the fit's own is "
+                                   f"{fit['B']:.3g} rad/s)", (float(t[i]), float(t[i])))
+        else:
+            last = float(t[idx[-1]])
+            terms["B"] = NoiseTerm("B", "upper bound",
+                                   float((a[i] + 2.0 * err_i) / FLICKER_FLOOR_FACTOR), None,
+                                   f"no floor: the curve still falls as white/quantisation "
+                                   f"noise at its lowest reliable point (tau {t[i]:g} s; "
+                                   f"reliable up to {last:g} s); bias instability <= "
+                                   "(that point + 2 sigma) / 0.664",
+                                   (float(t[i]), float(t[i])))
+    terms = {k: terms[k] for k in NOISE_TERMS}
+    return NoiseIdentification(terms=terms, fit=fit, fit_sigma=fit_sigma, chi2_red=chi2_red)
+
+
+def allan_analysis(rate, fs: float, taus=None, *, ci: float = ONE_SIGMA_CI, **identify_options
+                   ) -> tuple[AllanCI, NoiseIdentification]:
+    """Overlapping Allan deviation with EDF confidence intervals and the identified noise terms.
+
+    Steps: :func:`oadev_details`; a first identification with the IEEE 952 error bars gives the
+    leading noise type at each tau; :func:`edf_greenhall` and :func:`confidence_interval` give
+    the intervals; the final identification uses them (:func:`identify_noise_terms`).
+
+    Parameters
+    ----------
+    rate : array_like, shape (n,)
+        Rate signal, rad/s.
+    fs : float
+        Sample rate, Hz.
+    taus : None, 'octave', 'all' or array_like, shape (k,)
+        Averaging times, s (default octave).
+    ci : float, optional
+        Probability content of the intervals (default 0.6827).
+    **identify_options
+        ``model_error``, ``min_snr``, ``floor_max_rel_err`` of :func:`identify_noise_terms`.
+
+    Returns
+    -------
+    curve : AllanCI
+    identification : NoiseIdentification
+    """
+    curve = oadev_ci(rate, fs, taus, ci=ci)
+    if curve.taus.shape[0] < 3:
+        raise ValueError(f"rate: {curve.n} samples give only {curve.taus.shape[0]} octave "
+                         "averaging times; at least 3 are needed to identify noise terms "
+                         "(record at least 8 samples, in practice thousands)")
+    ident = identify_noise_terms(curve.taus, curve.adev, adev_low=curve.low,
+                                 adev_high=curve.high, ci=curve.ci, **identify_options)
+    return curve, ident

@@ -107,6 +107,7 @@ GRAVITY_ARROW_M_PER_G = 0.12
 AXIS_ARROW_M = 0.2
 CONFIDENCE = 0.6826894921370859      # 1 sigma, as allantools' default
 CONSTANT_PTP = 1e-6                  # peak to peak below this (display unit): constant
+LEGEND_HEADROOM = 1.0                # error views: empty space above the data, times its span
 
 # geometry of sim/rate_table.xml (half sizes and centres in the body frame, m)
 _BASE_BOXES = (((0.35, 0.30, 0.05), (0.0, 0.0, -0.55)),
@@ -465,9 +466,10 @@ def _log_table3d(w: _Writer, name: str, i: int, rd, axis: str) -> None:
     corner[(ia + 1) % 3] *= -1.0
     rec.log(f"{root}/fog/sensitive_axis",
             rr.Arrows3D(vectors=[e], origins=[corner], colors=[(255, 127, 14)],
-                        labels=[f"sensitive {axis}"], show_labels=True, radii=[0.005]), static=True)
+                        labels=[f"sensitive axis {axis}"], show_labels=False, radii=[0.005]), static=True)
     rec.log(f"{root}/fog/gravity", rr.Arrows3D.from_fields(
-        origins=[(0.0, 0.0, 0.0)], colors=[(44, 160, 44)], labels=["g"], show_labels=True,
+        origins=[(0.0, 0.0, 0.0)], colors=[(44, 160, 44)], labels=["gravity (up, 1 g)"],
+        show_labels=False,
         radii=[0.005]), static=True)
 
     s = slice(None, None, decimation(rd.n, MAX_POSE_POINTS))
@@ -502,7 +504,7 @@ def _log_piece(w: _Writer, key: str, it, colors, in_sample: bool) -> int:
     k = decimation(p.t.size, MAX_SERIES_POINTS)
     s = slice(None, None, k)
     allan, psd = [], []
-    nper = min(p.raw.size, 1024)
+    nper = 0
     for lab, out in it.outputs.items():
         c = _piece_color(colors, lab, in_sample)
         name = _piece_name(lab, in_sample)
@@ -524,7 +526,8 @@ def _log_piece(w: _Writer, key: str, it, colors, in_sample: bool) -> int:
                     allan.append((lab, name, c, ad.taus[ok], ad.adev[ok], lo, hi))
         if p.raw.size >= 16:
             try:
-                f, pxx = M.psd(err - np.mean(err), p.fs, nperseg=nper)
+                f, pxx = M.psd(err - np.mean(err), p.fs)
+                nper = 2 * (f.size - 1)      # one-sided: nperseg // 2 + 1 frequencies
             except ValueError:
                 f = pxx = np.zeros(0)
             ok = (f > 0) & np.isfinite(pxx) & (pxx > 0)
@@ -576,7 +579,7 @@ def _loglog(w: _Writer, root: str, curves, xlabel: str, ylabel: str, note: str) 
     rec.log(f"{root}/axes/grid", rr.LineStrips2D(grid, colors=[_GRID],
                                                  radii=rr.Radius.ui_points(0.5),
                                                  draw_order=0.0), static=True)
-    dx, dy = 0.1 / sx, 0.05 / sy   # label offsets: 0.1 and 0.05 plot units, in decades
+    dx, dy = 0.12 / sx, 0.06 / sy   # label offsets: 0.12 and 0.06 plot units, in decades
     pos = [(x, y0 - dy) for x in range(x0, x1 + 1)] + [(x0 - dx, y) for y in range(y0, y1 + 1)]
     labels = [_decade_label(x) for x in range(x0, x1 + 1)] + \
         [_decade_label(y) for y in range(y0, y1 + 1)]
@@ -605,7 +608,7 @@ def _loglog(w: _Writer, root: str, curves, xlabel: str, ylabel: str, note: str) 
     step = 0.12
     pts = [(_PLOT_W + 0.42, (i + 0.4) * step) for i in range(len(curves))]
     rec.log(f"{root}/legend", rr.Points2D(
-        pts, labels=[c[1] for c in curves], colors=[c[2] for c in curves],
+        pts, labels=[c[1] for c in curves], colors=[c[2][:3] for c in curves],
         radii=rr.Radius.ui_points(0.1), show_labels=True), static=True)
     w.plots[root] = note
 
@@ -715,6 +718,20 @@ def _y_axis(w: _Writer, paths: list[str]):
 _GLOBAL_VIEW_ID = "5c0dca6a-e63f-9cf7-f657-2602590474cc"
 
 
+def _y_axis_with_headroom(w: _Writer, paths: list[str]):
+    """A y range that keeps the upper part of the plot free for the legend (the data in the
+    lower half), or the fixed range of constant values."""
+    import rerun.blueprint as rrb
+
+    fixed = _y_axis(w, paths)
+    r = [w.ranges[p] for p in paths if p in w.ranges]
+    if fixed is not None or not r:
+        return fixed
+    lo, hi = min(a for a, _ in r), max(b for _, b in r)
+    span = hi - lo
+    return rrb.ScalarAxis(range=(lo - 0.05 * span, hi + LEGEND_HEADROOM * span))
+
+
 def _blueprint_class():
     import rerun.blueprint as rrb
 
@@ -749,10 +766,11 @@ def _blueprint(res, w: _Writer, reps: dict | None = None, active_tab: str = "Ove
     whole = rrb.VisibleTimeRange(TIMELINE, start=rrb.TimeRangeBoundary.infinite(),
                                  end=rrb.TimeRangeBoundary.infinite())
 
-    def plot(name, paths, legend=False, corner="RightTop"):
+    def plot(name, paths, legend=False, corner="RightTop", headroom=False):
         paths = list(paths)
         return rrb.TimeSeriesView(
-            name=name, contents=paths, axis_x=time_axis, axis_y=_y_axis(w, paths),
+            name=name, contents=paths, axis_x=time_axis,
+            axis_y=_y_axis_with_headroom(w, paths) if headroom else _y_axis(w, paths),
             time_ranges=[whole],
             plot_legend=rrb.PlotLegend(visible=legend, corner=corner))
 
@@ -782,21 +800,21 @@ def _blueprint(res, w: _Writer, reps: dict | None = None, active_tab: str = "Ove
     # a camera that frames the row of tables (0.8 m apart along y, each about 0.7 x 0.6 x 0.6 m)
     mid_y = 0.5 * (n_tables - 1) * TABLE_SPACING_M
     span = (n_tables - 1) * TABLE_SPACING_M + 0.8
-    dist = 0.55 * span + 1.1
-    eye = rrb.EyeControls3D(position=(dist * 0.85, mid_y - dist * 0.35, 0.2 + dist * 0.55),
+    dist = 0.6 * span + 1.2
+    eye = rrb.EyeControls3D(position=(dist * 0.9, mid_y - dist * 0.2, 0.2 + dist * 0.5),
                             look_target=(0.0, mid_y, -0.25), eye_up=(0.0, 0.0, 1.0))
-    table3d = rrb.Spatial3DView(name="Rate table (3-D)", origin="/table", eye_controls=eye)
-    err_tabs = [plot(f"Error vs truth, {r}, deg/h", lst, legend=True)
+    table3d = rrb.Spatial3DView(
+        name=f"Rate tables (3-D): orange = sensitive axis {res.plan.axis}, green = gravity (1 g up)",
+        origin="/table", eye_controls=eye)
+    err_tabs = [plot(f"Error vs truth, {r}, deg/h", lst, legend=True, headroom=True)
                 for r, lst in error_views.items()]
     overview = rrb.Horizontal(
         rrb.Vertical(table3d, rrb.TextDocumentView(name="Metrics", origin="/report/metrics"),
                      row_shares=[3, 2]),
         rrb.Vertical(
-            plot("Rate about the sensitive axis, deg/s (truth dark, raw light, a colour per run)",
-                 rate),
             rrb.Tabs(*err_tabs, name="Error vs truth") if len(err_tabs) > 1 else err_tabs[0],
             plot("Coil (dark) and chamber (light) temperature, deg C", temp),
-            row_shares=[2, 4, 2]),
+            row_shares=[5, 2]),
         column_shares=[2, 3], name="Overview")
     tabs = [overview]
     if len(error_views) > 1:
@@ -804,6 +822,8 @@ def _blueprint(res, w: _Writer, reps: dict | None = None, active_tab: str = "Ove
                                for r, lst in error_views.items()],
                              grid_columns=2 if len(error_views) > 1 else 1, name="Errors"))
     tabs.append(rrb.Grid(
+        plot("Rate about the sensitive axis, deg/s (truth dark, raw light, a colour per run)",
+             rate),
         plot("Tilt (dark) and its command (light), deg",
              each("table", "tilt_deg") + each("table", "tilt_cmd_deg")),
         plot("Turntable rate (dark) and its command (light), deg/s",
@@ -811,6 +831,7 @@ def _blueprint(res, w: _Writer, reps: dict | None = None, active_tab: str = "Ove
         plot("Gravity on the sensor axes (x red, y green, z blue), g",
              [_p("runs", r, "gravity", a) for r in runs for a in "xyz"]),
         plot("Coil dT/dt, deg C/min", each("thermal", "coil_rate_c_per_min")),
+        plot("Coil (dark) and chamber (light) temperature, deg C", temp),
         grid_columns=2, name="Table and chamber"))
     terms = []
     for r in runs:

@@ -69,11 +69,13 @@ per series per run or piece and ``MAX_POSE_POINTS`` 3-D poses per run; ``/report
 for every run and piece. Every metric, Allan deviation and PSD is computed on the full record.
 
 The blueprint (sent with the recording, active and default for the application) opens on tab
-"Overview": the 3-D tables and the metrics on the left; on the right the rate of every run (truth
-and raw), the error against truth of each scored run (one tab per run: raw, oracle and every
-method, deg/h) and the temperatures. Further tabs: "Errors" (every scored run side by side),
-"Table and chamber", "FOG error terms" (a plot per run), "Allan deviation" and "PSD" (a log-log
-plot per scored piece), "Monte Carlo" (with replicates) and "Report".
+"Overview": the 3-D tables and the metrics on the left; on the right the error against truth of
+each scored run (one tab per run: raw, oracle and every method of every protocol, deg/h, its
+legend above the data) and the temperatures. Further tabs: "Errors" (every scored run side by
+side), "Table and chamber" (rate of every run, truth and raw; tilt; turntable rate; gravity; coil
+dT/dt; temperatures), "FOG error terms" (a plot per run), "Allan deviation" and "PSD" (a log-log
+plot per scored piece), "Monte Carlo" (with replicates) and "Report". Only the `replicate`
+timeline is not `sim_time`: picking it shows the replicate plots and blanks the others.
 """
 
 from __future__ import annotations
@@ -800,8 +802,8 @@ def _blueprint(res, w: _Writer, reps: dict | None = None, active_tab: str = "Ove
     # a camera that frames the row of tables (0.8 m apart along y, each about 0.7 x 0.6 x 0.6 m)
     mid_y = 0.5 * (n_tables - 1) * TABLE_SPACING_M
     span = (n_tables - 1) * TABLE_SPACING_M + 0.8
-    dist = 0.6 * span + 1.2
-    eye = rrb.EyeControls3D(position=(dist * 0.9, mid_y - dist * 0.2, 0.2 + dist * 0.5),
+    dist = 0.75 * span + 1.4
+    eye = rrb.EyeControls3D(position=(dist * 0.8, mid_y - dist * 0.45, 0.2 + dist * 0.5),
                             look_target=(0.0, mid_y, -0.25), eye_up=(0.0, 0.0, 1.0))
     table3d = rrb.Spatial3DView(
         name=f"Rate tables (3-D): orange = sensitive axis {res.plan.axis}, green = gravity (1 g up)",
@@ -845,7 +847,7 @@ def _blueprint(res, w: _Writer, reps: dict | None = None, active_tab: str = "Ove
                 it.protocol) else "") + f"; {w.plots[_p('report', kind, key, it.run)]}",
             origin=_p("report", kind, key, it.run),
             visual_bounds=rrb.VisualBounds2D(x_range=(-0.3, _PLOT_W + 0.8),
-                                             y_range=(-0.15, _PLOT_H + 0.22)))
+                                             y_range=(-0.15, _PLOT_H + 0.3)))
             for key, it in zip(keys, res.scored)
             if _p("report", kind, key, it.run) in w.plots]
         if views:

@@ -200,6 +200,15 @@ def external_requests(msgs: list[tuple[str, str]]) -> list[str]:
     return sorted({u for typ, u in msgs if typ == "requestfailed" and _external(u)})
 
 
+def _save_small(png: bytes, path: Path) -> None:
+    """Save a screenshot as a 256-colour PNG (a third of the size; the viewer's flat colours
+    survive the palette)."""
+    from PIL import Image
+
+    img = Image.open(io.BytesIO(png)).convert("RGB")
+    img.quantize(colors=256, method=Image.Quantize.MEDIANCUT).save(path, optimize=True)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--shot", action="append", required=True,
@@ -241,7 +250,7 @@ def main(argv=None) -> int:
                 for tab, fname in items:
                     show_tab(proxy, res, tab)
                     wait_until_drawn(page, min_s=3.0)
-                    page.screenshot(path=str(out / fname))
+                    _save_small(page.screenshot(), out / fname)
                     print(f"  {tab}: {out / fname}")
                 ext = external_requests(msgs)
                 if ext:

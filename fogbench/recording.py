@@ -1,19 +1,20 @@
 """The Rerun recording of a scenario run (``recording.rrd`` in the run directory).
 
-``write_recording(res, path)`` writes one Rerun recording (application id ``fogbench``,
-recording id = the scenario name) holding every run of the scenario, with a blueprint (the
-viewer's layout) declared in code; ``fogbench view DIR`` opens it (:func:`view`).
+``write_recording(res, path, replicates=None)`` writes one Rerun recording (application id
+``fogbench``, recording id = the scenario name) holding every run of the scenario, with a
+blueprint (the viewer's layout) declared in code; ``fogbench view DIR`` opens it (:func:`view`).
 
-All series are logged in bulk with ``send_columns`` on one timeline, ``sim_time`` (a duration:
-the simulated time since the run's power-on, s). The runs of a scenario are separate power-ons that
-all start at ``sim_time`` 0, so they sit side by side in one recording, under ``/runs/<run>``: one
-plot then compares the runs, and the static report is stored once. In the 3-D view each run has
-its own table (``/table/<run>``), placed in a row along the world y axis (0.8 m apart, base
-labelled with the run name), all moving together as ``sim_time`` plays.
+All time series are logged in bulk with ``send_columns`` on one timeline, ``sim_time`` (a
+duration: the simulated time since the run's power-on, s). The runs of a scenario are separate
+power-ons that all start at ``sim_time`` 0, so they share one time base: every time-series view
+opens on the whole of the longest run (0 to its end) and their time axes are linked (zooming one
+zooms all). In the 3-D view each run has its own table (``/table/<run>``), placed in a row along
+the world y axis (0.8 m apart, base labelled with the run name), all moving together as
+``sim_time`` plays; the default camera frames every table.
 
 Entity paths (`<run>`: run name; `<protocol>`: protocol name, with `_2`, `_3`... appended when
 a protocol scores the same run more than once; `<label>`: `raw`, `oracle` or a method label;
-`<term>`: a FOG error term). The table is markdown, as in the README:
+`<term>`: a FOG error term; `<metric>`: a metric name). The table is markdown, as in the README:
 
 | entity path | content |
 |---|---|
@@ -24,8 +25,8 @@ a protocol scores the same run more than once; `<label>`: `raw`, `oracle` or a m
 | `/table/<run>/turntable` | turntable cylinder (r 0.15 m); pose = `turntable_quat` |
 | `/table/<run>/turntable/index_mark` | a mark near the turntable rim, to see it turn (static) |
 | `/table/<run>/fog` | FOG case (9 cm cube); pose = `fog_pos`, `fog_quat` |
-| `/table/<run>/fog/sensitive_axis` | arrow along the scenario's sensitive axis, FOG frame (static) |
-| `/table/<run>/fog/gravity` | arrow of `Truth.gravity` in the FOG frame, per sample (Arrows3D vectors column): 1 g *up*, what an accelerometer at rest reads, 0.12 m per g |
+| `/table/<run>/fog/sensitive_axis` | orange arrow (0.2 m) along the scenario's sensitive axis, FOG frame, drawn from a point 0.11 m beside the case so that it stays apart from the gravity arrow when the two are parallel (static) |
+| `/table/<run>/fog/gravity` | green arrow of `Truth.gravity` from the case centre, FOG frame, per sample (Arrows3D vectors column): 1 g *up*, what an accelerometer at rest reads, 0.12 m per g |
 | `/runs/<run>/truth/rate` | true inertial rate about the sensitive axis, deg/s |
 | `/runs/<run>/fog/raw` | raw FOG output, deg/s |
 | `/runs/<run>/fog/compensated/<protocol>/<label>` | output of a scored piece (raw, oracle, each method), deg/s |
@@ -38,27 +39,43 @@ a protocol scores the same run more than once; `<label>`: `raw`, `oracle` or a m
 | `/runs/<run>/gravity/x`, `y`, `z` | `Truth.gravity` on the sensor axes, g |
 | `/report/metrics` | metrics tables, failed methods, display decimation (markdown, static) |
 | `/report/scenario` | the scenario file (markdown with a TOML block, static) |
-| `/report/allan/<protocol>/<run>/<label>` | log10 of the overlapping Allan deviation of (output - truth) in deg/h, on timeline `log10_tau_s` |
-| `/report/psd/<protocol>/<run>/<label>` | log10 of the Welch PSD of the output (mean removed) in (deg/s)^2/Hz, on timeline `log10_freq_hz` |
+| `/report/allan/<protocol>/<run>` | a log-log plot (static, 2-D view origin): `axes` (decade grid and labels), `legend` (names in their colours); `axes` and every curve carry the transform from (log10 tau/s, log10 deviation/(deg/h)) onto the plot |
+| `/report/allan/<protocol>/<run>/<label>` | overlapping Allan deviation of (output - truth): a line strip of points (log10 tau in s, log10 ADEV in deg/h), static |
+| `/report/allan/<protocol>/<run>/<label>/ci` | its 68.3 % confidence interval at every tau: one vertical segment per tau, same coordinates |
+| `/report/psd/<protocol>/<run>`, `.../<label>` | the same for the Welch PSD of (output - truth), mean removed: (log10 f/Hz, log10 PSD/((deg/h)^2/Hz)); the interval is one factor for every frequency, stated in the legend |
+| `/replicates/<protocol>/<metric>/<label>` | with Monte Carlo replicates: the metric of each replicate on the sequence timeline `replicate` (points) |
+| `/replicates/summary` | the distribution of every replicated metric: median and 5-95 % range (markdown, static) |
 
 Scored pieces are logged at their own sample times (``Piece.t``): a subset of the run, and for
 smoothed protocols the block means at the blocks' mean times. A method that failed has no
-``compensated``/``error`` series; the metrics text says so.
+``compensated``/``error``/``allan``/``psd`` entries; the metrics text says so.
 
-Allan deviation and PSD curves are series over a second and a third timeline (`log10_tau_s`,
-`log10_freq_hz`, of duration type; Rerun's plot axes are linear, so both axes are in log10): pick
-that timeline in the viewer's time panel to see them (tab "Allan / PSD"). A timeline value of
-1.5 s reads as log10(tau / 1 s) = 1.5, i.e. tau = 31.6 s.
+Allan deviation and PSD are static line strips in 2-D views with their own decade grid and
+labels (Rerun 0.41 has no logarithmic plot axis): they show the moment their tab opens, whatever
+timeline is selected. The confidence interval of the Allan deviation is the chi-square interval
+with the equivalent degrees of freedom of white rate noise (NIST SP 1065, Table 5, "white FM"):
+exact for angle random walk, optimistic at the long taus where other noises dominate. The PSD's
+interval is the chi-square interval with the Welch EDF of a Hann window at 50 % overlap
+(Percival and Walden 1993, eq. 292b).
+
+Colours: the method's colour everywhere (raw grey, oracle cyan, methods from a palette that reads
+on both the light web theme and the dark native one); a held-out protocol in the full colour, an
+in-sample one in a lighter tint with "(in-sample)" in its name. Series whose values are constant
+to rounding (peak to peak below 1e-6 in their display unit) are shown on a fixed range around
+their value instead of being autoscaled onto floating-point noise.
 
 Long runs are decimated for display only (every k-th sample): at most ``MAX_SERIES_POINTS`` points
 per series per run or piece and ``MAX_POSE_POINTS`` 3-D poses per run; ``/report/metrics`` gives k
-for every run and piece. Every metric is computed on the full record.
+for every run and piece. Every metric, Allan deviation and PSD is computed on the full record.
 
 The blueprint (sent with the recording, active and default for the application) opens on tab
-"Overview": the 3-D table and the metrics on the left; on the right the rate comparison (truth,
-raw, compensated; deg/s), the error against the truth (deg/h) and the temperatures. Further tabs:
-"Table and chamber" (tilt, turntable rate, gravity, coil dT/dt), "FOG error terms", "Allan / PSD"
-and "Report" (metrics and scenario file).
+"Overview": the 3-D tables and the metrics on the left; on the right the error against truth of
+each scored run (one tab per run: raw, oracle and every method of every protocol, deg/h, its
+legend above the data) and the temperatures. Further tabs: "Errors" (every scored run side by
+side), "Table and chamber" (rate of every run, truth and raw; tilt; turntable rate; gravity; coil
+dT/dt; temperatures), "FOG error terms" (a plot per run), "Allan deviation" and "PSD" (a log-log
+plot per scored piece), "Monte Carlo" (with replicates) and "Report". Only the `replicate`
+timeline is not `sim_time`: picking it shows the replicate plots and blanks the others.
 """
 
 from __future__ import annotations
@@ -78,18 +95,21 @@ from fogcomp.units import DPH, DPS
 
 from .fmt import KEY_METRICS, fmt, md_table
 
-__all__ = ["write_recording", "view", "decimation", "MAX_SERIES_POINTS", "MAX_POSE_POINTS",
-           "TIMELINE", "TAU_TIMELINE", "FREQ_TIMELINE", "APPLICATION_ID"]
+__all__ = ["write_recording", "view", "blueprint_for", "ReplicatesError", "decimation", "allan_interval", "psd_interval",
+           "MAX_SERIES_POINTS", "MAX_POSE_POINTS", "TIMELINE", "REPLICATE_TIMELINE",
+           "APPLICATION_ID", "CONFIDENCE"]
 
 APPLICATION_ID = "fogbench"
 TIMELINE = "sim_time"
-TAU_TIMELINE = "log10_tau_s"
-FREQ_TIMELINE = "log10_freq_hz"
-MAX_SERIES_POINTS = 20_000
+REPLICATE_TIMELINE = "replicate"
+MAX_SERIES_POINTS = 10_000
 MAX_POSE_POINTS = 5_000
 TABLE_SPACING_M = 0.8
 GRAVITY_ARROW_M_PER_G = 0.12
-AXIS_ARROW_M = 0.15
+AXIS_ARROW_M = 0.2
+CONFIDENCE = 0.6826894921370859      # 1 sigma, as allantools' default
+CONSTANT_PTP = 1e-6                  # peak to peak below this (display unit): constant
+LEGEND_HEADROOM = 1.0                # error views: empty space above the data, times its span
 
 # geometry of sim/rate_table.xml (half sizes and centres in the body frame, m)
 _BASE_BOXES = (((0.35, 0.30, 0.05), (0.0, 0.0, -0.55)),
@@ -99,9 +119,14 @@ _TILT_BOX = ((0.28, 0.22, 0.02), (0.0, 0.0, -0.04))
 _TURNTABLE = (0.15, 0.03)             # radius, length (MuJoCo half-height 0.015)
 _FOG_BOX = (0.045, 0.045, 0.04)
 
-_GREY, _DARK, _GREEN = (150, 150, 150), (40, 40, 40), (44, 160, 44)
-_PALETTE = [(31, 119, 180), (255, 127, 14), (214, 39, 40), (148, 103, 189), (140, 86, 75),
-            (227, 119, 194), (23, 190, 207), (188, 189, 34)]
+# colours that read on the light web theme and the dark native one (no near-black, no
+# near-white): raw grey, oracle cyan, methods from Tableau 10 without its grey and cyan
+_RAW, _ORACLE, _TRUTH = (140, 140, 140, 150), (23, 190, 207), (44, 160, 44)
+_PALETTE = [(31, 119, 180), (214, 39, 40), (255, 127, 14), (148, 103, 189), (227, 119, 194),
+            (188, 189, 34), (140, 86, 75), (44, 160, 44)]
+_RUN_PALETTE = [(31, 119, 180), (255, 127, 14), (44, 160, 44), (214, 39, 40), (148, 103, 189),
+                (140, 86, 75), (227, 119, 194), (188, 189, 34), (23, 190, 207)]
+_GRID = (128, 128, 128, 110)
 
 
 def decimation(n: int, max_points: int) -> int:
@@ -116,32 +141,134 @@ def _p(*parts: str) -> str:
     return "/" + "/".join(rr.escape_entity_path_part(str(x)) for x in parts)
 
 
+def _tint(c, f: float) -> tuple:
+    """``c`` blended towards white by the fraction ``f``."""
+    return tuple(int(round(x + (255 - x) * f)) for x in c[:3])
+
+
+# ---------------------------------------------------------------------------------------------
+# confidence intervals
+def allan_interval(adev, m, n: int, confidence: float = CONFIDENCE):
+    """Chi-square confidence interval of overlapping Allan deviations, white-rate-noise EDF.
+
+    Parameters
+    ----------
+    adev : array_like, shape (k,)
+        Overlapping Allan deviations (any unit; the bounds come out in the same unit).
+    m : array_like, shape (k,)
+        Averaging factors (tau = m / fs), samples, ``1 <= m <= (n - 1) // 2``.
+    n : int
+        Number of rate samples the deviations were computed from (``n + 1`` angle samples).
+    confidence : float
+        Two-sided confidence level, 0 < confidence < 1 (default 68.3 %, one sigma).
+
+    Returns
+    -------
+    lo, hi : ndarray, shape (k,)
+        Lower and upper bounds.
+    edf : ndarray, shape (k,)
+        Equivalent degrees of freedom.
+
+    Notes
+    -----
+    EDF of the overlapping Allan variance for white frequency noise (a gyro's white rate noise,
+    i.e. angle random walk), NIST SP 1065 (Riley 2008), Table 5, with ``N = n + 1`` phase
+    (angle) samples::
+
+        edf = (3 (N - 1) / (2 m) - 2 (N - 2) / N) * 4 m^2 / (4 m^2 + 5)
+
+    and the interval ``avar * edf / chi2(1 - a/2, edf) <= avar <= avar * edf / chi2(a/2, edf)``
+    (NIST SP 1065 eq. 36). It is the noise type that dominates short taus; where bias
+    instability or rate random walk dominate the true interval is wider.
+
+    TODO: switch to the EDF-based interval function that issue 13 adds to ``fogcomp/allan.py``
+    (Greenhall's EDF for the identified noise type) when it is merged.
+    """
+    from scipy.stats import chi2
+
+    adev = np.asarray(adev, dtype=float)
+    m = np.asarray(m, dtype=float)
+    big_n = float(n) + 1.0
+    edf = (3.0 * (big_n - 1.0) / (2.0 * m) - 2.0 * (big_n - 2.0) / big_n) * \
+        (4.0 * m**2 / (4.0 * m**2 + 5.0))
+    edf = np.maximum(edf, 1e-3)
+    a = 1.0 - confidence
+    lo = adev * np.sqrt(edf / chi2.ppf(1.0 - a / 2.0, edf))
+    hi = adev * np.sqrt(edf / chi2.ppf(a / 2.0, edf))
+    return lo, hi, edf
+
+
+def psd_interval(n: int, nperseg: int, confidence: float = CONFIDENCE):
+    """Multiplicative chi-square interval of a Welch PSD (Hann window, 50 % overlap).
+
+    Parameters
+    ----------
+    n : int
+        Samples in the record.
+    nperseg : int
+        Samples per segment.
+    confidence : float
+        Two-sided confidence level.
+
+    Returns
+    -------
+    lo_factor, hi_factor, edf : float
+        The true PSD lies within ``[psd * lo_factor, psd * hi_factor]`` with the given
+        confidence; ``edf`` degrees of freedom.
+
+    Notes
+    -----
+    ``K = (n - nperseg) // (nperseg // 2) + 1`` segments; with a Hann window at 50 % overlap
+    adjacent segments are correlated by ``rho = 0.167`` (Welch 1967, Table 1), and
+    ``edf = 2 K / (1 + 2 sum_{j=1}^{K-1} (1 - j/K) rho_j^2)`` (Percival and Walden 1993,
+    eq. 292b), only ``rho_1`` being non-zero. Interval: ``edf psd / chi2(1 - a/2, edf)`` to
+    ``edf psd / chi2(a/2, edf)``.
+    """
+    from scipy.stats import chi2
+
+    step = max(nperseg // 2, 1)
+    k = max((n - nperseg) // step + 1, 1)
+    edf = 2.0 * k / (1.0 + 2.0 * (1.0 - 1.0 / k) * 0.167**2) if k > 1 else 2.0
+    a = 1.0 - confidence
+    return edf / chi2.ppf(1.0 - a / 2.0, edf), edf / chi2.ppf(a / 2.0, edf), edf
+
+
+# ---------------------------------------------------------------------------------------------
+# writing
 class _Writer:
     def __init__(self, rec):
         import rerun as rr
 
         self.rr, self.rec = rr, rec
+        self.ranges: dict[str, tuple[float, float]] = {}   # path -> (min, max) of what is shown
+        self.plots: dict[str, str] = {}                       # log-log plot root -> note
 
     def _time(self, t: np.ndarray, timeline: str = TIMELINE):
         ns = np.round(np.asarray(t, dtype=float) * 1e9).astype(np.int64)
         return self.rr.TimeColumn(timeline, duration=ns.astype("timedelta64[ns]"))
 
-    def series(self, path: str, t, y, name: str, color, timeline: str = TIMELINE,
-               width: float | None = None):
+    def series(self, path: str, t, y, name: str, color, width: float | None = None):
         rr = self.rr
         y = np.ascontiguousarray(y, dtype=np.float64)
+        fin = y[np.isfinite(y)]
+        if fin.size:
+            self.ranges[path] = (float(fin.min()), float(fin.max()))
         self.rec.log(path, rr.SeriesLines(names=name, colors=[color],
                                           widths=None if width is None else [width]),
                      static=True)
-        self.rec.send_columns(path, indexes=[self._time(t, timeline)],
+        self.rec.send_columns(path, indexes=[self._time(t)],
                               columns=rr.Scalars.columns(scalars=y))
 
 
-def _colors(res) -> dict[str, tuple]:
-    out = {"raw": _GREY, "oracle": _DARK, "truth": _GREEN}
+def _method_colors(res) -> dict[str, tuple]:
+    out = {"raw": _RAW, "oracle": _ORACLE}
     for i, ms in enumerate(res.plan.methods):
         out.setdefault(ms.label, _PALETTE[i % len(_PALETTE)])
     return out
+
+
+def _color(colors: dict, lab: str) -> tuple:
+    return colors.get(lab, _PALETTE[zlib.crc32(lab.encode()) % len(_PALETTE)])
 
 
 def _piece_keys(res) -> list[str]:
@@ -155,71 +282,158 @@ def _piece_keys(res) -> list[str]:
     return keys
 
 
-def write_recording(res, path: Path) -> None:
-    """Write the Rerun recording of a scenario result ``res`` (a ``ScenarioResult``) to ``path``.
+def _in_sample(res) -> dict[str, bool]:
+    return {p.name: bool(p.in_sample) for p in res.plan.protocols}
+
+
+class ReplicatesError(ValueError):
+    """The ``replicates`` argument of :func:`write_recording` is malformed."""
+
+
+def _check_replicates(replicates) -> dict:
+    """``{protocol: {metric: {label: values}}}`` as float arrays, or a ReplicatesError naming
+    the key that is wrong."""
+    if replicates is None:
+        return {}
+    if not isinstance(replicates, dict):
+        raise ReplicatesError(f"replicates: expected a dict {{protocol: {{metric: {{label: "
+                              f"[values]}}}}}}, got {type(replicates).__name__}")
+    out: dict = {}
+    for prot, metrics in replicates.items():
+        if not isinstance(metrics, dict):
+            raise ReplicatesError(f"replicates[{prot!r}]: expected a dict {{metric: {{label: "
+                                  f"[values]}}}}, got {type(metrics).__name__}")
+        for metric, labels in metrics.items():
+            if not isinstance(labels, dict):
+                raise ReplicatesError(f"replicates[{prot!r}][{metric!r}]: expected a dict "
+                                      f"{{label: [values]}}, got {type(labels).__name__}")
+            for lab, vals in labels.items():
+                where = f"replicates[{prot!r}][{metric!r}][{lab!r}]"
+                try:
+                    v = np.array([np.nan if x is None else x for x in vals], dtype=float)
+                except (TypeError, ValueError) as exc:
+                    raise ReplicatesError(f"{where}: expected a list of numbers (one per "
+                                          f"replicate, None for a failed one): {exc}") from None
+                if v.ndim != 1:
+                    raise ReplicatesError(f"{where}: expected a flat list of numbers, got "
+                                          f"shape {v.shape}")
+                out.setdefault(str(prot), {}).setdefault(str(metric), {})[str(lab)] = v
+    return out
+
+
+def write_recording(res, path: Path, replicates: dict | None = None) -> None:
+    """Write the Rerun recording of a scenario result to ``path``.
+
+    Parameters
+    ----------
+    res : ScenarioResult
+        The result of :func:`fogbench.runner.run_scenario`; with Monte Carlo, one representative
+        replicate, shown in full.
+    path : path-like
+        The ``.rrd`` file to write.
+    replicates : dict, optional
+        ``{protocol: {metric: {label: values}}}``: each metric (unit in its name) of each label
+        (``raw``, ``oracle``, a method) over the replicates, ``values[r]`` that of replicate
+        ``r`` (None or NaN for a replicate where it is undefined). Logged on the sequence
+        timeline ``replicate`` and summarised (median, 5-95 % range) in ``/replicates/summary``.
+
+    Raises
+    ------
+    ReplicatesError
+        ``replicates`` is malformed (checked before anything is written).
 
     See the module docstring for the entity paths, timelines and decimation.
     """
     import rerun as rr
 
+    reps = _check_replicates(replicates)
     path = Path(path)
-    sc = res.scenario
-    rec = rr.RecordingStream(application_id=APPLICATION_ID, recording_id=sc.name,
+    rec = rr.RecordingStream(application_id=APPLICATION_ID, recording_id=res.scenario.name,
                              send_properties=False)
     rec.save(path)
     try:
-        rec.send_recording_name(sc.name)
-        rec.send_blueprint(_blueprint(res), make_active=True, make_default=True)
-        w = _Writer(rec)
-        colors = _colors(res)
-        axis = res.plan.axis
-        j = sc.axes.index(axis)
-        decim = {}
-        for i, (name, rd) in enumerate(res.data.items()):
-            decim[name] = _log_run(w, name, rd, j, colors)
-            _log_table3d(w, name, i, rd, axis)
-        piece_decim = []
-        for key, it in zip(_piece_keys(res), res.scored):
-            piece_decim.append(_log_piece(w, key, it, colors))
-        rec.log("/report/metrics", rr.TextDocument(_metrics_text(res, decim, piece_decim),
-                                                   media_type="text/markdown"), static=True)
-        rec.log("/report/scenario", rr.TextDocument(
-            f"# Scenario `{sc.name}`\n\n`{sc.path}`\n\n```toml\n{sc.text}\n```\n",
-            media_type="text/markdown"), static=True)
+        w = _log_all(rec, res, reps)
+        rec.send_blueprint(_blueprint(res, w, reps), make_active=True, make_default=True)
         rec.flush()
     finally:
         rec.disconnect()
 
 
-def _log_run(w: _Writer, name: str, rd, j: int, colors) -> tuple[int, int]:
+def _log_all(rec, res, reps: dict) -> _Writer:
+    """Log everything but the blueprint into ``rec``; the writer knows the ranges logged."""
+    import rerun as rr
+
+    sc = res.scenario
+    rec.send_recording_name(sc.name)
+    w = _Writer(rec)
+    colors = _method_colors(res)
+    axis = res.plan.axis
+    j = sc.axes.index(axis)
+    decim = {}
+    for i, (name, rd) in enumerate(res.data.items()):
+        decim[name] = _log_run(w, name, rd, j, _RUN_PALETTE[i % len(_RUN_PALETTE)])
+        _log_table3d(w, name, i, rd, axis)
+    piece_decim = []
+    ins = _in_sample(res)
+    for key, it in zip(_piece_keys(res), res.scored):
+        piece_decim.append(_log_piece(w, key, it, colors, ins.get(it.protocol, False)))
+    rec.log("/report/metrics", rr.TextDocument(_metrics_text(res, decim, piece_decim),
+                                               media_type="text/markdown"), static=True)
+    rec.log("/report/scenario", rr.TextDocument(
+        f"# Scenario `{sc.name}`\n\n`{sc.path}`\n\n```toml\n{sc.text}\n```\n",
+        media_type="text/markdown"), static=True)
+    if reps:
+        _log_replicates(w, reps, colors)
+    return w
+
+
+def blueprint_for(res, replicates: dict | None = None, active_tab: str = "Overview"):
+    """The blueprint :func:`write_recording` sends, opened on the tab ``active_tab``.
+
+    For tools that drive a viewer (``scripts/screenshots.py``): it logs the recording once more
+    into memory to know the ranges of the series (about the time of a write).
+    """
+    import rerun as rr
+
+    reps = _check_replicates(replicates)
+    rec = rr.RecordingStream(application_id=APPLICATION_ID, recording_id=res.scenario.name,
+                             send_properties=False)
+    rec.memory_recording()
+    try:
+        w = _log_all(rec, res, reps)
+    finally:
+        rec.disconnect()
+    return _blueprint(res, w, reps, active_tab=active_tab)
+
+
+def _log_run(w: _Writer, name: str, rd, j: int, run_color) -> tuple[int, int]:
     """The time series of one run; returns the (series, pose) decimation factors."""
     tr = rd.truth
     k = decimation(rd.n, MAX_SERIES_POINTS)
     s = slice(None, None, k)
     t = tr.t[s]
     w.series(_p("runs", name, "truth", "rate"), t, rd.truth_axis(j)[s] / DPS,
-             f"{name} truth, deg/s", colors["truth"], width=2.0)
+             f"{name} truth", run_color, width=2.0)
     w.series(_p("runs", name, "fog", "raw"), t, rd.fog.raw[s, j] / DPS,
-             f"{name} raw, deg/s", colors["raw"])
-    table = {"tilt_deg": (np.degrees(tr.tilt[s]), "tilt, deg", (31, 119, 180)),
-             "tilt_cmd_deg": (np.degrees(tr.tilt_cmd[s]), "tilt command, deg", _GREY),
-             "turn_rate_dps": (np.degrees(tr.turn_rate[s]), "turntable rate, deg/s",
-                               (255, 127, 14)),
-             "turn_rate_cmd_dps": (np.degrees(tr.turn_rate_cmd[s]),
-                                   "turntable rate command, deg/s", _GREY)}
+             f"{name} raw", _tint(run_color, 0.5), width=1.0)
+    table = {"tilt_deg": (np.degrees(tr.tilt[s]), "tilt", run_color),
+             "tilt_cmd_deg": (np.degrees(tr.tilt_cmd[s]), "tilt command", _tint(run_color, 0.5)),
+             "turn_rate_dps": (np.degrees(tr.turn_rate[s]), "turntable rate", run_color),
+             "turn_rate_cmd_dps": (np.degrees(tr.turn_rate_cmd[s]), "turntable rate command",
+                                   _tint(run_color, 0.5))}
     for leaf, (y, label, c) in table.items():
         w.series(_p("runs", name, "table", leaf), t, y, f"{name} {label}", c)
     th = rd.thermal
-    for leaf, y, label, c in (("chamber_c", th.chamber, "chamber, deg C", (31, 119, 180)),
-                              ("coil_c", th.coil, "coil, deg C", (214, 39, 40)),
-                              ("coil_rate_c_per_min", th.coil_rate * 60.0,
-                               "coil dT/dt, deg C/min", (148, 103, 189))):
+    for leaf, y, label, c in (("chamber_c", th.chamber, "chamber", _tint(run_color, 0.5)),
+                              ("coil_c", th.coil, "coil", run_color),
+                              ("coil_rate_c_per_min", th.coil_rate * 60.0, "coil dT/dt",
+                               run_color)):
         w.series(_p("runs", name, "thermal", leaf), t, y[s], f"{name} {label}", c)
     for i, (ax, c) in enumerate(zip("xyz", ((214, 39, 40), (44, 160, 44), (31, 119, 180)))):
-        w.series(_p("runs", name, "gravity", ax), t, tr.gravity[s, i], f"{name} gravity {ax}, g", c)
+        w.series(_p("runs", name, "gravity", ax), t, tr.gravity[s, i], f"{name} gravity {ax}", c)
     for i, (term, v) in enumerate(rd.fog.terms.items()):
-        w.series(_p("runs", name, "fog", "error_terms", term), t, v[s, j] / DPH,
-                 f"{name} {term}, deg/h", _PALETTE[i % len(_PALETTE)])
+        w.series(_p("runs", name, "fog", "error_terms", term), t, v[s, j] / DPH, term,
+                 (_PALETTE + [_ORACLE, _RAW])[i % (len(_PALETTE) + 2)])
     return k, decimation(rd.n, MAX_POSE_POINTS)
 
 
@@ -244,14 +458,21 @@ def _log_table3d(w: _Writer, name: str, i: int, rd, axis: str) -> None:
                        colors=[(214, 39, 40)], fill_mode="solid"), static=True)
     rec.log(f"{root}/fog", rr.Boxes3D(half_sizes=[_FOG_BOX], colors=[(31, 119, 180)],
                                       fill_mode="solid"), static=True)
+    # the sensitive axis starts at a corner of the case, off the gravity arrow (which starts at
+    # the centre): the two stay apart when they are collinear (a level table, axis z)
+    ia = "xyz".index(axis)
     e = np.zeros(3)
-    e["xyz".index(axis)] = AXIS_ARROW_M
+    e[ia] = AXIS_ARROW_M
+    corner = 2.5 * np.array(_FOG_BOX, dtype=float)
+    corner[ia] = 0.0
+    corner[(ia + 1) % 3] *= -1.0
     rec.log(f"{root}/fog/sensitive_axis",
-            rr.Arrows3D(vectors=[e], origins=[(0.0, 0.0, 0.0)], colors=[(255, 127, 14)],
-                        labels=[f"sensitive axis {axis}"], radii=[0.004]), static=True)
+            rr.Arrows3D(vectors=[e], origins=[corner], colors=[(255, 127, 14)],
+                        labels=[f"sensitive axis {axis}"], show_labels=False, radii=[0.005]), static=True)
     rec.log(f"{root}/fog/gravity", rr.Arrows3D.from_fields(
         origins=[(0.0, 0.0, 0.0)], colors=[(44, 160, 44)], labels=["gravity (up, 1 g)"],
-        radii=[0.004]), static=True)
+        show_labels=False,
+        radii=[0.005]), static=True)
 
     s = slice(None, None, decimation(rd.n, MAX_POSE_POINTS))
     tcol = [w._time(tr.t[s])]
@@ -267,41 +488,163 @@ def _log_table3d(w: _Writer, name: str, i: int, rd, axis: str) -> None:
         vectors=np.ascontiguousarray(tr.gravity[s] * GRAVITY_ARROW_M_PER_G)))
 
 
-def _log_piece(w: _Writer, key: str, it, colors) -> int:
+def _piece_name(lab: str, in_sample: bool) -> str:
+    return f"{lab} (in-sample)" if in_sample and lab not in ("raw", "oracle") else lab
+
+
+def _piece_color(colors, lab: str, in_sample: bool) -> tuple:
+    c = _color(colors, lab)
+    return _tint(c, 0.45) if in_sample and lab not in ("raw", "oracle") else c
+
+
+def _log_piece(w: _Writer, key: str, it, colors, in_sample: bool) -> int:
     """Compensated outputs, errors, Allan deviation and PSD of one scored piece."""
     from fogcomp import metrics as M
-    from fogcomp.allan import oadev
+    from fogcomp.allan import oadev_details
 
     p = it.piece
     k = decimation(p.t.size, MAX_SERIES_POINTS)
     s = slice(None, None, k)
+    allan, psd = [], []
+    nper = 0
     for lab, out in it.outputs.items():
-        c = colors.get(lab, _PALETTE[zlib.crc32(lab.encode()) % len(_PALETTE)])
-        tag = f"{it.run} {lab} [{key}]"
+        c = _piece_color(colors, lab, in_sample)
+        name = _piece_name(lab, in_sample)
+        width = 3.0 if lab == "raw" else 1.5
         w.series(_p("runs", it.run, "fog", "compensated", key, lab), p.t[s], out[s] / DPS,
-                 f"{tag}, deg/s", c)
+                 name, c, width)
         w.series(_p("runs", it.run, "fog", "error", key, lab), p.t[s],
-                 (out[s] - p.truth[s]) / DPH, f"{tag} error, deg/h", c)
+                 (out[s] - p.truth[s]) / DPH, name, c, width)
+        err = (out - p.truth) / DPH
         if p.raw.size >= 64:
             try:
-                taus, ad = oadev(out - p.truth, p.fs)
+                ad = oadev_details(err, p.fs)
             except ValueError:  # display only: a curve that cannot be computed is left out
-                taus = ad = np.zeros(0)
-            ok = np.isfinite(ad) & (ad > 0)
-            if ok.any():
-                w.series(_p("report", "allan", key, it.run, lab), np.log10(taus[ok]),
-                         np.log10(ad[ok] / DPH), f"{tag}: log10 ADEV, deg/h", c, TAU_TIMELINE)
-        if p.raw.size >= 2:
+                ad = None
+            if ad is not None:
+                ok = np.isfinite(ad.adev) & (ad.adev > 0)
+                if ok.sum() >= 2:
+                    lo, hi, _ = allan_interval(ad.adev[ok], ad.m[ok], ad.n)
+                    allan.append((lab, name, c, ad.taus[ok], ad.adev[ok], lo, hi))
+        if p.raw.size >= 16:
             try:
-                f, psd = M.psd(out - np.mean(out), p.fs, nperseg=min(p.raw.size, 1024))
+                f, pxx = M.psd(err - np.mean(err), p.fs)
+                nper = 2 * (f.size - 1)      # one-sided: nperseg // 2 + 1 frequencies
             except ValueError:
-                f = psd = np.zeros(0)
-            ok = (f > 0) & np.isfinite(psd) & (psd > 0)
-            if ok.any():
-                w.series(_p("report", "psd", key, it.run, lab), np.log10(f[ok]),
-                         np.log10(psd[ok] / DPS**2), f"{tag}: log10 PSD, (deg/s)^2/Hz", c,
-                         FREQ_TIMELINE)
+                f = pxx = np.zeros(0)
+            ok = (f > 0) & np.isfinite(pxx) & (pxx > 0)
+            if ok.sum() >= 2:
+                psd.append((lab, name, c, f[ok], pxx[ok], None, None))
+    if allan:
+        _loglog(w, _p("report", "allan", key, it.run), allan, "tau, s",
+                "Allan deviation of output - truth, deg/h",
+                f"bars: {100 * CONFIDENCE:.0f} % interval, white-noise EDF")
+    if psd:
+        lo_f, hi_f, edf = psd_interval(p.raw.size, nper)
+        _loglog(w, _p("report", "psd", key, it.run), psd, "frequency, Hz",
+                "PSD of output - truth, (deg/h)^2/Hz",
+                f"{100 * CONFIDENCE:.0f} % interval x{lo_f:.2f} to x{hi_f:.2f}, EDF {edf:.0f}")
     return k
+
+
+def _decade_label(k: int) -> str:
+    return f"{10.0 ** k:g}" if -3 <= k <= 4 else f"1e{k}"
+
+
+# plot box of the log-log views, scene units of the 2-D view (y grows downwards)
+_PLOT_W, _PLOT_H = 1.6, 1.0
+
+
+def _loglog(w: _Writer, root: str, curves, xlabel: str, ylabel: str, note: str) -> None:
+    """A log-log plot as static 2-D entities under ``root`` (the origin of its view).
+
+    ``curves``: (label, name, colour, x, y, lo, hi) with x, y > 0 and optional interval bounds
+    lo, hi (arrays like y, or None). The curves, their intervals, the decade grid and its labels
+    are logged in (log10 x, log10 y) coordinates under a transform onto the plot box (each such
+    child carries it: a view ignores the transform of its own origin); the legend is in the
+    box's own units, right of it.
+    """
+    rr, rec = w.rr, w.rec
+    lx = [np.log10(c[3]) for c in curves]
+    ly = [np.log10(c[4]) for c in curves] + [np.log10(c[5]) for c in curves if c[5] is not None] \
+        + [np.log10(c[6]) for c in curves if c[6] is not None]
+    ly = [v[np.isfinite(v)] for v in ly]
+    x0 = math.floor(min(v.min() for v in lx))
+    x1 = max(math.ceil(max(v.max() for v in lx)), x0 + 1)
+    y0 = math.floor(min(v.min() for v in ly if v.size))
+    y1 = max(math.ceil(max(v.max() for v in ly if v.size)), y0 + 1)
+    sx, sy = _PLOT_W / (x1 - x0), _PLOT_H / (y1 - y0)
+    tf = rr.Transform3D(translation=[-x0 * sx, _PLOT_H + y0 * sy, 0.0], scale=[sx, -sy, 1.0])
+    rec.log(f"{root}/axes", tf, static=True)
+    grid = [[(x, y0), (x, y1)] for x in range(x0, x1 + 1)] + \
+        [[(x0, y), (x1, y)] for y in range(y0, y1 + 1)]
+    rec.log(f"{root}/axes/grid", rr.LineStrips2D(grid, colors=[_GRID],
+                                                 radii=rr.Radius.ui_points(0.5),
+                                                 draw_order=0.0), static=True)
+    dx, dy = 0.12 / sx, 0.06 / sy   # label offsets: 0.12 and 0.06 plot units, in decades
+    pos = [(x, y0 - dy) for x in range(x0, x1 + 1)] + [(x0 - dx, y) for y in range(y0, y1 + 1)]
+    labels = [_decade_label(x) for x in range(x0, x1 + 1)] + \
+        [_decade_label(y) for y in range(y0, y1 + 1)]
+    pos += [((x0 + x1) / 2.0, y0 - 2.4 * dy), (x0 + 0.45 / sx, y1 + 1.3 * dy)]
+    labels += [xlabel, ylabel]
+    rec.log(f"{root}/axes/labels", rr.Points2D(pos, labels=labels, radii=rr.Radius.ui_points(0.1),
+                                               colors=[(128, 128, 128)], show_labels=True,
+                                               draw_order=1.0), static=True)
+    for i, (lab, name, c, x, y, lo, hi) in enumerate(curves):
+        path = f"{root}/{w.rr.escape_entity_path_part(lab)}"
+        width = 4.0 if lab == "raw" else 1.5
+        rec.log(path, tf, static=True)
+        rec.log(path, rr.LineStrips2D([np.column_stack([np.log10(x), np.log10(y)])],
+                                      colors=[c], radii=rr.Radius.ui_points(width / 2.0),
+                                      labels=[name], show_labels=False,
+                                      draw_order=10.0 + i), static=True)
+        if lo is not None:
+            bars = [[(a, np.log10(b)), (a, np.log10(d))]
+                    for a, b, d in zip(np.log10(x), lo, hi)
+                    if b > 0 and np.isfinite(b) and np.isfinite(d)]
+            rec.log(f"{path}/ci", rr.LineStrips2D(bars, colors=[c],
+                                                  radii=rr.Radius.ui_points(0.75),
+                                                  draw_order=10.0 + i), static=True)
+    # legend: right of the plot box, the name of each curve in its colour (a label is centred
+    # on its point)
+    step = 0.12
+    pts = [(_PLOT_W + 0.42, (i + 0.4) * step) for i in range(len(curves))]
+    rec.log(f"{root}/legend", rr.Points2D(
+        pts, labels=[c[1] for c in curves], colors=[c[2][:3] for c in curves],
+        radii=rr.Radius.ui_points(0.1), show_labels=True), static=True)
+    w.plots[root] = note
+
+
+def _log_replicates(w: _Writer, reps: dict, colors) -> None:
+    rr, rec = w.rr, w.rec
+    rows = []
+    for prot, metrics in reps.items():
+        for metric, labels in metrics.items():
+            for lab, v in labels.items():
+                path = _p("replicates", prot, metric, lab)
+                rec.log(path, rr.SeriesPoints(names=lab, colors=[_color(colors, lab)],
+                                              markers=["circle"], marker_sizes=[3.0]),
+                        static=True)
+                idx = np.flatnonzero(np.isfinite(v))
+                if idx.size:
+                    rec.send_columns(path, indexes=[rr.TimeColumn(REPLICATE_TIMELINE,
+                                                                  sequence=idx)],
+                                     columns=rr.Scalars.columns(scalars=v[idx]))
+                f = v[np.isfinite(v)]
+                if f.size:
+                    q = np.percentile(f, [50, 5, 95])
+                    rows.append([prot, metric, lab, f"{f.size}/{v.size}", fmt(float(q[0]), metric),
+                                 f"{fmt(float(q[1]), metric)} to {fmt(float(q[2]), metric)}"])
+                else:
+                    rows.append([prot, metric, lab, f"0/{v.size}", "–", "–"])
+    text = ["# Monte Carlo: the distribution over replicates", "",
+            "Every other tab shows one representative replicate in full. Here: each metric over "
+            f"the replicates (the points are on the `{REPLICATE_TIMELINE}` timeline: pick it in "
+            "the time panel to see them).", "",
+            md_table(["protocol", "metric", "label", "finite / replicates", "median",
+                      "5-95 % range"], rows), ""]
+    rec.log("/replicates/summary", rr.TextDocument("\n".join(text), media_type="text/markdown"),
+            static=True)
 
 
 def _metrics_text(res, decim: dict, piece_decim: list[int]) -> str:
@@ -345,66 +688,193 @@ def _metrics_text(res, decim: dict, piece_decim: list[int]) -> str:
         L += [""]
     L += ["## Viewer", "",
           f"Time series are on the `{TIMELINE}` timeline (simulated time since power-on, s; "
-          "every run starts at 0). The Allan deviation and PSD curves are on the "
-          f"`{TAU_TIMELINE}` and `{FREQ_TIMELINE}` timelines (x = log10 of tau in s / of the "
-          "frequency in Hz, y in log10 too): pick that timeline in the time panel to see them.",
-          ""]
+          "every run starts at 0); every plot opens on the whole of the longest run and their "
+          "time axes are linked. Errors are output minus truth in deg/h: raw grey, oracle cyan, "
+          "one colour per method; an in-sample protocol is drawn in a lighter tint and named "
+          "`(in-sample)`. Tabs `Allan deviation` and `PSD` hold log-log plots (decade grid, "
+          f"tau in s, deviation in deg/h) with {100 * CONFIDENCE:.0f} % intervals. A plot whose "
+          f"values are constant to within {CONSTANT_PTP:g} (its unit) is shown on a fixed range "
+          "around the value.", ""]
     return "\n".join(L)
 
 
-def _blueprint(res):
+def _y_axis(w: _Writer, paths: list[str]):
+    """A fixed y range for a view whose series are all constant to rounding, else None."""
+    import rerun.blueprint as rrb
+
+    r = [w.ranges[p] for p in paths if p in w.ranges]
+    if not r:
+        return None
+    lo, hi = min(a for a, _ in r), max(b for _, b in r)
+    c = 0.5 * (lo + hi)
+    if hi - lo > max(CONSTANT_PTP, 1e-9 * abs(c)):
+        return None
+    half = max(1.0, 0.5 * abs(c))
+    return rrb.ScalarAxis(range=(c - half, c + half))
+
+
+# The viewer's "global view" (re_viewer_context::GLOBAL_VIEW_ID, Rerun 0.41): the shared time
+# axis of every plot whose TimeAxis link is LinkToGlobal. The Python API does not expose it; its
+# TimeAxis is a view property at the blueprint path view/<id>/TimeAxis like any view's. Without
+# it the linked plots fall back to their own data range and do not open on the whole run.
+_GLOBAL_VIEW_ID = "5c0dca6a-e63f-9cf7-f657-2602590474cc"
+
+
+def _y_axis_with_headroom(w: _Writer, paths: list[str]):
+    """A y range that keeps the upper part of the plot free for the legend (the data in the
+    lower half), or the fixed range of constant values."""
+    import rerun.blueprint as rrb
+
+    fixed = _y_axis(w, paths)
+    r = [w.ranges[p] for p in paths if p in w.ranges]
+    if fixed is not None or not r:
+        return fixed
+    lo, hi = min(a for a, _ in r), max(b for _, b in r)
+    span = hi - lo
+    return rrb.ScalarAxis(range=(lo - 0.05 * span, hi + LEGEND_HEADROOM * span))
+
+
+def _blueprint_class():
+    import rerun.blueprint as rrb
+
+    class _Bp(rrb.Blueprint):
+        """A blueprint that also sets the global view's time axis (see _GLOBAL_VIEW_ID)."""
+
+        def __init__(self, *parts, global_time_axis=None, **kw):
+            super().__init__(*parts, **kw)
+            self._global_time_axis = global_time_axis
+
+        def _log_to_stream(self, stream) -> None:
+            super()._log_to_stream(stream)
+            if self._global_time_axis is not None:
+                stream.log(f"view/{_GLOBAL_VIEW_ID}/TimeAxis", self._global_time_axis)
+
+    return _Bp
+
+
+def _Blueprint(*parts, **kw):
+    return _blueprint_class()(*parts, **kw)
+
+
+def _blueprint(res, w: _Writer, reps: dict | None = None, active_tab: str = "Overview"):
+    import rerun as rr
     import rerun.blueprint as rrb
 
     runs = list(res.data)
-    keys = sorted(set(zip(_piece_keys(res), (it.run for it in res.scored))))
-    rate = []
-    for r in runs:
-        rate += [_p("runs", r, "truth", "rate"), _p("runs", r, "fog", "raw"),
-                 _p("runs", r, "fog", "compensated") + "/**"]
-    rate += [f"- {_p('runs', r, 'fog', 'compensated', k, 'raw')}" for k, r in keys]
-    error = [_p("runs", r, "fog", "error") + "/**" for r in runs]
-    temp = [x for r in runs for x in (_p("runs", r, "thermal", "chamber_c"),
-                                       _p("runs", r, "thermal", "coil_c"))]
-    tilt = [x for r in runs for x in (_p("runs", r, "table", "tilt_deg"),
-                                       _p("runs", r, "table", "tilt_cmd_deg"))]
-    turn = [x for r in runs for x in (_p("runs", r, "table", "turn_rate_dps"),
-                                       _p("runs", r, "table", "turn_rate_cmd_dps"))]
-    grav = [_p("runs", r, "gravity") + "/**" for r in runs]
-    coil_rate = [_p("runs", r, "thermal", "coil_rate_c_per_min") for r in runs]
-    terms = [_p("runs", r, "fog", "error_terms") + "/**" for r in runs]
+    t_end = max(float(rd.truth.t[-1]) for rd in res.data.values())
+    time_range = rr.TimeRange(start=rrb.TimeRangeBoundary.absolute(seconds=0.0),
+                              end=rrb.TimeRangeBoundary.absolute(seconds=t_end))
+    time_axis = rrb.TimeAxis(link="LinkToGlobal", view_range=time_range)
+    whole = rrb.VisibleTimeRange(TIMELINE, start=rrb.TimeRangeBoundary.infinite(),
+                                 end=rrb.TimeRangeBoundary.infinite())
+
+    def plot(name, paths, legend=False, corner="RightTop", headroom=False):
+        paths = list(paths)
+        return rrb.TimeSeriesView(
+            name=name, contents=paths, axis_x=time_axis,
+            axis_y=_y_axis_with_headroom(w, paths) if headroom else _y_axis(w, paths),
+            time_ranges=[whole],
+            plot_legend=rrb.PlotLegend(visible=legend, corner=corner))
+
+    def each(*leaf):
+        return [_p("runs", r, *leaf) for r in runs]
+
+    # the error views: one per scored run, every protocol scoring it, raw and oracle once unless
+    # they differ between protocols
+    keys = _piece_keys(res)
+    by_run: dict[str, list[str]] = {}
+    seen_ref: dict[str, list] = {}
+    for key, it in zip(keys, res.scored):
+        lst = by_run.setdefault(it.run, [])
+        for lab, out in it.outputs.items():
+            if lab in ("raw", "oracle"):
+                sig = (lab, it.piece.t.size, float(it.piece.t[0]), float(it.piece.t[-1]),
+                       float(np.sum(out)))
+                if sig in seen_ref.setdefault(it.run, []):
+                    continue
+                seen_ref[it.run].append(sig)
+            lst.append(_p("runs", it.run, "fog", "error", key, lab))
+    error_views = {r: lst for r, lst in by_run.items()}
+
+    rate = [x for r in runs for x in (_p("runs", r, "truth", "rate"), _p("runs", r, "fog", "raw"))]
+    temp = each("thermal", "coil_c") + each("thermal", "chamber_c")
+    n_tables = len(runs)
+    # a camera that frames the row of tables (0.8 m apart along y, each about 0.7 x 0.6 x 0.6 m)
+    mid_y = 0.5 * (n_tables - 1) * TABLE_SPACING_M
+    span = (n_tables - 1) * TABLE_SPACING_M + 0.8
+    dist = 0.75 * span + 1.4
+    eye = rrb.EyeControls3D(position=(dist * 0.8, mid_y - dist * 0.45, 0.2 + dist * 0.5),
+                            look_target=(0.0, mid_y, -0.25), eye_up=(0.0, 0.0, 1.0))
+    table3d = rrb.Spatial3DView(
+        name=f"Rate tables (3-D): orange = sensitive axis {res.plan.axis}, green = gravity (1 g up)",
+        origin="/table", eye_controls=eye)
+    err_tabs = [plot(f"Error vs truth, {r}, deg/h", lst, legend=True, headroom=True)
+                for r, lst in error_views.items()]
     overview = rrb.Horizontal(
+        rrb.Vertical(table3d, rrb.TextDocumentView(name="Metrics", origin="/report/metrics"),
+                     row_shares=[3, 2]),
         rrb.Vertical(
-            rrb.Spatial3DView(name="Rate table (3-D)", origin="/table"),
-            rrb.TextDocumentView(name="Metrics", origin="/report/metrics"),
-            row_shares=[3, 2]),
-        rrb.Vertical(
-            rrb.TimeSeriesView(name="Rate: truth, raw, compensated (deg/s)", contents=rate),
-            rrb.TimeSeriesView(name="Error vs truth (deg/h)", contents=error),
-            rrb.TimeSeriesView(name="Temperature (deg C)", contents=temp),
-            row_shares=[3, 3, 2]),
+            rrb.Tabs(*err_tabs, name="Error vs truth") if len(err_tabs) > 1 else err_tabs[0],
+            plot("Coil (dark) and chamber (light) temperature, deg C", temp),
+            row_shares=[5, 2]),
         column_shares=[2, 3], name="Overview")
-    environment = rrb.Grid(
-        rrb.TimeSeriesView(name="Tilt (deg)", contents=tilt),
-        rrb.TimeSeriesView(name="Turntable rate (deg/s)", contents=turn),
-        rrb.TimeSeriesView(name="Gravity on the sensor axes (g)", contents=grav),
-        rrb.TimeSeriesView(name="Coil dT/dt (deg C/min)", contents=coil_rate),
-        grid_columns=2, name="Table and chamber")
-    spectra = rrb.Horizontal(
-        rrb.TimeSeriesView(name=f"Allan deviation of output - truth: log10 deg/h vs "
-                                f"{TAU_TIMELINE}", origin="/report/allan"),
-        rrb.TimeSeriesView(name=f"PSD: log10 (deg/s)^2/Hz vs {FREQ_TIMELINE}",
-                           origin="/report/psd"),
-        name="Allan / PSD")
-    report = rrb.Horizontal(
+    tabs = [overview]
+    if len(error_views) > 1:
+        tabs.append(rrb.Grid(*[plot(f"Error vs truth, {r}, deg/h (colours as in Overview)", lst)
+                               for r, lst in error_views.items()],
+                             grid_columns=2 if len(error_views) > 1 else 1, name="Errors"))
+    tabs.append(rrb.Grid(
+        plot("Rate about the sensitive axis, deg/s (truth dark, raw light, a colour per run)",
+             rate),
+        plot("Tilt (dark) and its command (light), deg",
+             each("table", "tilt_deg") + each("table", "tilt_cmd_deg")),
+        plot("Turntable rate (dark) and its command (light), deg/s",
+             each("table", "turn_rate_dps") + each("table", "turn_rate_cmd_dps")),
+        plot("Gravity on the sensor axes (x red, y green, z blue), g",
+             [_p("runs", r, "gravity", a) for r in runs for a in "xyz"]),
+        plot("Coil dT/dt, deg C/min", each("thermal", "coil_rate_c_per_min")),
+        plot("Coil (dark) and chamber (light) temperature, deg C", temp),
+        grid_columns=2, name="Table and chamber"))
+    terms = []
+    for r in runs:
+        paths = [_p("runs", r, "fog", "error_terms", t) for t in res.data[r].fog.terms]
+        terms.append(plot(f"FOG error terms, {r}, deg/h", paths, legend=len(runs) <= 2,
+                          corner="LeftTop"))
+    tabs.append(rrb.Grid(*terms, grid_columns=min(len(terms), 3), name="FOG error terms"))
+    for kind, title in (("allan", "Allan deviation"), ("psd", "PSD")):
+        views = [rrb.Spatial2DView(
+            name=f"{title}: {key} / {it.run}" + (" (in-sample)" if _in_sample(res).get(
+                it.protocol) else "") + f"; {w.plots[_p('report', kind, key, it.run)]}",
+            origin=_p("report", kind, key, it.run),
+            visual_bounds=rrb.VisualBounds2D(x_range=(-0.3, _PLOT_W + 0.8),
+                                             y_range=(-0.15, _PLOT_H + 0.3)))
+            for key, it in zip(keys, res.scored)
+            if _p("report", kind, key, it.run) in w.plots]
+        if views:
+            tabs.append(rrb.Grid(*views, grid_columns=min(len(views), 2), name=title))
+    if reps:
+        views = []
+        for prot, metrics in reps.items():
+            for metric in metrics:
+                views.append(rrb.TimeSeriesView(
+                    name=f"{metric} over replicates, {prot}",
+                    origin=_p("replicates", prot, metric),
+                    plot_legend=rrb.PlotLegend(visible=True, corner="RightTop")))
+        tabs.append(rrb.Horizontal(
+            rrb.TextDocumentView(name="Distribution over replicates",
+                                 origin="/replicates/summary"),
+            rrb.Grid(*views, grid_columns=min(len(views), 2)),
+            column_shares=[2, 3], name="Monte Carlo"))
+    tabs.append(rrb.Horizontal(
         rrb.TextDocumentView(name="Metrics", origin="/report/metrics"),
         rrb.TextDocumentView(name="Scenario", origin="/report/scenario"),
-        name="Report")
-    return rrb.Blueprint(
-        rrb.Tabs(overview, environment,
-                 rrb.TimeSeriesView(name="FOG error terms (deg/h)", contents=terms),
-                 spectra, report, active_tab=0),
-        rrb.TimePanel(timeline=TIMELINE),
-        collapse_panels=False)
+        name="Report"))
+    names = [t.name for t in tabs]
+    if active_tab not in names:
+        raise ValueError(f"active_tab: no tab {active_tab!r}; tabs: {names}")
+    return _Blueprint(rrb.Tabs(*tabs, active_tab=names.index(active_tab)),
+                      rrb.TimePanel(timeline=TIMELINE), collapse_panels=False,
+                      global_time_axis=rrb.TimeAxis(view_range=time_range))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -438,9 +908,10 @@ def _has_display() -> bool:
 def view(run_dir: Path) -> int:
     """Open ``run_dir/recording.rrd`` in the Rerun viewer.
 
-    Returns 0 when the viewer was started, 2 when there is no recording, 1 when no viewer can be
-    started here (no viewer installed, no display, or the viewer failed at once): a message then
-    says how to open the file.
+    Returns 0 when the viewer was started or the file was handed to a viewer already running
+    (a message says which), 2 when there is no recording, 1 when no viewer can be started here
+    (no viewer installed, no display, or the viewer failed at once): a message then says how to
+    open the file.
     """
     rrd = Path(run_dir) / "recording.rrd"
     if not rrd.is_file():
@@ -466,7 +937,12 @@ def view(run_dir: Path) -> int:
     except subprocess.TimeoutExpired:
         print(f"fogbench view: opened {rrd} in the Rerun viewer")
         return 0
-    if rc == 0:  # handed the file to a viewer already running, or closed at once
+    if rc == 0:
+        # the rerun binary hands a file to a viewer already listening on its port (9876) and
+        # exits at once with status 0; a viewer it started itself keeps running
+        print(f"fogbench view: handed {rrd} to a Rerun viewer that was already running (the "
+              "new viewer process exited at once); look for the recording in that viewer's "
+              f"window, or run `rerun --new {rrd}` for a viewer of its own")
         return 0
     print(f"fogbench view: the viewer exited with status {rc}. {_how_to(rrd)}", file=sys.stderr)
     return 1

@@ -11,9 +11,12 @@ from __future__ import annotations
 import math
 import subprocess
 
+import allantools
 import numpy as np
 import pyarrow as pa
 import pytest
+import scipy.signal
+import scipy.stats
 from rerun.chunk import RrdReader
 
 import fogcomp
@@ -138,6 +141,15 @@ class Rrd:
     def scalars(self, path: str, timeline: str = R.TIMELINE):
         return self.column(path, "Scalars:scalars", timeline)
 
+    def static_strips(self, path: str) -> list[np.ndarray]:
+        """The static LineStrips2D of ``path``: a list of (k, 2) arrays."""
+        for c in self.chunks[path]:
+            rb = c.to_record_batch()
+            if c.is_static and "LineStrips2D:strips" in rb.schema.names:
+                return [np.array(strip, dtype=float)
+                        for strip in rb.column("LineStrips2D:strips")[0].as_py()]
+        raise AssertionError(f"{path}: no static LineStrips2D")
+
     def static_text(self, path: str) -> str:
         for c in self.chunks[path]:
             rb = c.to_record_batch()
@@ -191,8 +203,9 @@ def test_the_file_holds_one_recording_named_after_the_scenario_and_a_blueprint(t
                 names |= {x for row in rb.column(col).to_pylist() for x in row or []}
         if "TimePanelBlueprint:timeline" in rb.schema.names:
             timeline = rb.column("TimePanelBlueprint:timeline").to_pylist()[0][0]
-    assert {"Overview", "Rate table (3-D)", "Rate: truth, raw, compensated (deg/s)",
-            "Error vs truth (deg/h)", "Temperature (deg C)", "Allan / PSD"} <= names
+    assert {"Overview", "Error vs truth, test_run, deg/h", "Table and chamber",
+            "Allan deviation", "PSD", "Report"} <= names
+    assert any(n.startswith("Rate tables (3-D)") for n in names)
     assert timeline == R.TIMELINE
 
 
@@ -256,11 +269,25 @@ def test_compensated_and_error_series_of_every_scored_piece(tiny):
             t, e = rrd.scalars(f"/runs/{it.run}/fog/error/{it.protocol}/{lab}")
             np.testing.assert_array_equal(t, ns(p.t))
             assert_f32_equal(e, (out - p.truth) / DPH, f"{lab} error")
-            tau, adev = rrd.scalars(f"/report/allan/{it.protocol}/{it.run}/{lab}",
-                                    timeline=R.TAU_TIMELINE)
-            assert tau.size >= 3 and np.all(np.isfinite(adev))
-            # the shortest tau is one sample interval: log10(1/fs) on the log10_tau_s timeline
-            assert tau[0] == ns(math.log10(1.0 / p.fs))
+            # the Allan deviation, in (log10 tau/s, log10 ADEV/(deg/h)), against allantools
+            xy = rrd.static_strips(f"/report/allan/{it.protocol}/{it.run}/{lab}")[0]
+            taus, adev, _, _ = allantools.oadev((out - p.truth) / DPH, rate=p.fs,
+                                                data_type="freq", taus="octave")
+            np.testing.assert_allclose(10 ** xy[:, 0], taus, rtol=1e-5)
+            np.testing.assert_allclose(10 ** xy[:, 1], adev, rtol=1e-5)
+            assert math.isclose(10 ** xy[0, 0], 1.0 / p.fs, rel_tol=1e-6)
+            bars = rrd.static_strips(f"/report/allan/{it.protocol}/{it.run}/{lab}/ci")
+            assert len(bars) == taus.size
+            for (lo, hi), a in zip(bars, adev):
+                assert lo[0] == hi[0] and 10 ** lo[1] < a < 10 ** hi[1]
+            # the PSD of the error, (deg/h)^2/Hz, against scipy's Welch estimate
+            xy = rrd.static_strips(f"/report/psd/{it.protocol}/{it.run}/{lab}")[0]
+            e = (out - p.truth) / DPH
+            # fogcomp.metrics.psd's default segment for 400 samples: 256 (at least 256)
+            assert e.size == 400
+            f, pxx = scipy.signal.welch(e - e.mean(), fs=p.fs, nperseg=256)
+            np.testing.assert_allclose(10 ** xy[:, 0], f[1:], rtol=1e-5)
+            np.testing.assert_allclose(10 ** xy[:, 1], pxx[1:], rtol=1e-4)
 
 
 def test_table_poses_follow_the_truth_quaternions(tiny):
@@ -381,3 +408,165 @@ def test_view_spawns_the_viewer_on_the_file(tmp_path, monkeypatch):
 def test_the_viewer_found_is_the_one_of_the_installed_rerun_sdk():
     cmd = R._viewer_command()
     assert cmd is not None and cmd[0].endswith("rerun")
+
+
+# --------------------------------------------------------------------------------------------
+# the layout: whole run, linked axes, constant values, 3-D camera
+def _blueprint_props(rrd) -> dict[str, dict[str, list]]:
+    """entity path in the blueprint store -> component column -> first row."""
+    (bp,) = rrd.reader.blueprints()
+    out: dict[str, dict[str, list]] = {}
+    for c in rrd.reader.stream(store=bp):
+        rb = c.to_record_batch()
+        for n in rb.schema.names:
+            if ":" in n:
+                out.setdefault(c.entity_path, {})[n] = rb.column(n).to_pylist()[-1]
+    return out
+
+
+def test_every_time_series_view_opens_on_the_whole_run_and_their_time_axes_are_linked(tiny):
+    res, _, rrd = tiny
+    props = _blueprint_props(rrd)
+    t_end = ns(max(rd.truth.t[-1] for rd in res.data.values()))
+    whole = [{"start": 0, "end": int(t_end)}]
+    series_views = [p for p, c in props.items()
+                    if c.get("ViewBlueprint:class_identifier") == ["TimeSeries"]]
+    assert len(series_views) >= 8
+    for v in series_views:
+        axis = props.get(f"{v}/TimeAxis", {})
+        assert axis.get("TimeAxis:link") == [2], f"{v}: time axis not linked to the global one"
+        assert axis.get("TimeAxis:view_range") == whole
+    # the shared (global) time axis the linked views use opens on the whole run too
+    assert props[f"/view/{R._GLOBAL_VIEW_ID}/TimeAxis"]["TimeAxis:view_range"] == whole
+
+
+def test_a_view_of_values_constant_to_rounding_gets_a_fixed_range_around_them():
+    w = R._Writer(rec=None)
+    w.ranges = {"/coil_rate": (-7e-9, 7e-9), "/temp": (20.0, 20.0 + 1e-12),
+                "/rate": (-60.2, -59.8)}
+    axis = R._y_axis(w, ["/coil_rate"])
+    lo, hi = axis.range.as_arrow_array().to_pylist()[0]
+    assert lo <= -0.5 and hi >= 0.5           # noise of 1e-8 spans a hundred-millionth of it
+    lo, hi = R._y_axis(w, ["/temp"]).range.as_arrow_array().to_pylist()[0]
+    assert lo < 20.0 < hi and hi - lo >= 1.0
+    assert R._y_axis(w, ["/rate"]) is None     # a real variation is autoscaled
+    assert R._y_axis(w, ["/coil_rate", "/rate"]) is None
+
+
+def test_the_default_camera_sees_every_table(tiny):
+    res, _, rrd = tiny
+    props = _blueprint_props(rrd)
+    (eye,) = [c for p, c in props.items() if p.endswith("/EyeControls3D")]
+    pos = np.array(eye["EyeControls3D:position"][0])
+    target = np.array(eye["EyeControls3D:look_target"][0])
+    look = (target - pos) / np.linalg.norm(target - pos)
+    for i, run in enumerate(res.data):
+        centre = np.array([0.0, i * R.TABLE_SPACING_M, -0.3])
+        d = centre - pos
+        angle = math.degrees(math.acos(np.dot(d, look) / np.linalg.norm(d)))
+        assert angle < 20.0, f"table {run} is {angle:.0f} deg off the camera's axis"
+
+
+def test_the_sensitive_axis_and_gravity_arrows_start_apart(tiny):
+    res, _, rrd = tiny
+    for run in res.data:
+        ax = _static_component(rrd, f"/table/{run}/fog/sensitive_axis", "Arrows3D:origins")
+        g = _static_component(rrd, f"/table/{run}/fog/gravity", "Arrows3D:origins")
+        assert np.linalg.norm(np.array(ax[0]) - np.array(g[0])) >= 0.08
+
+
+def _static_component(rrd, path, column):
+    for c in rrd.chunks[path]:
+        rb = c.to_record_batch()
+        if c.is_static and column in rb.schema.names:
+            return rb.column(column)[0].as_py()
+    raise AssertionError(f"{path}: no static {column}")
+
+
+# --------------------------------------------------------------------------------------------
+# confidence intervals, against allantools and against a simulation
+@pytest.mark.parametrize("n,m", [(1000, 1), (1000, 16), (100_000, 256), (50, 8)])
+def test_allan_interval_is_allantools_white_fm_chi_square_interval(n, m):
+    lo, hi, edf = R.allan_interval(np.array([2.0]), np.array([m]), n)
+    want_edf = allantools.edf_simple(n + 1, m, 0)     # N phase samples, alpha 0: white FM
+    assert math.isclose(edf[0], want_edf, rel_tol=1e-12)
+    want_lo, want_hi = allantools.confidence_interval(2.0, want_edf)
+    assert math.isclose(lo[0], want_lo, rel_tol=1e-9)
+    assert math.isclose(hi[0], want_hi, rel_tol=1e-9)
+
+
+def test_psd_interval_covers_the_true_psd_of_white_noise_as_often_as_it_says():
+    rng = np.random.default_rng(5)
+    fs, n, nper, sigma = 10.0, 8192, 256, 0.3
+    true = 2.0 * sigma**2 / fs                          # one-sided PSD of white noise
+    lo_f, hi_f, _ = R.psd_interval(n, nper)
+    hits = total = 0
+    for _ in range(40):
+        _, pxx = scipy.signal.welch(rng.normal(0.0, sigma, n), fs=fs, nperseg=nper,
+                                    noverlap=nper // 2)
+        pxx = pxx[1:-1]                                  # DC and Nyquist bins have 1 dof
+        hits += np.count_nonzero((pxx * lo_f <= true) & (true <= pxx * hi_f))
+        total += pxx.size
+    assert abs(hits / total - R.CONFIDENCE) < 0.03
+
+
+# --------------------------------------------------------------------------------------------
+# Monte Carlo replicates
+REPS = {"held_out": {"rmse_dph": {"raw": [491.0, 489.5, 490.2, 492.8, 488.1],
+                                  "kalman": [12.5, None, 11.0, float("nan"), 13.25]},
+                     "std_dps": {"wavelet_soft": [0.02, 0.021, 0.019, 0.0205, 0.022]}}}
+
+
+def test_replicates_are_logged_on_their_own_timeline_and_summarised(tiny, tmp_path):
+    res, _, _ = tiny
+    R.write_recording(res, tmp_path / "recording.rrd", replicates=REPS)
+    rrd = Rrd(tmp_path / "recording.rrd")
+    for prot, metrics in REPS.items():
+        for metric, labels in metrics.items():
+            for lab, vals in labels.items():
+                idx, got = rrd.scalars(f"/replicates/{prot}/{metric}/{lab}",
+                                       timeline=R.REPLICATE_TIMELINE)
+                want = [(i, v) for i, v in enumerate(vals) if v is not None and v == v]
+                np.testing.assert_array_equal(idx, [i for i, _ in want])
+                np.testing.assert_allclose(got, [v for _, v in want], rtol=1e-12)
+    md = rrd.static_text("/replicates/summary")
+    assert "| held_out | rmse_dph | kalman | 3/5 | 12.5 |" in md    # median of 12.5, 11, 13.25
+    assert "| held_out | rmse_dph | raw | 5/5 | 490.2 |" in md
+    # the representative replicate is still there in full
+    it = res.scored[0]
+    t, _ = rrd.scalars(f"/runs/{it.run}/fog/error/{it.protocol}/kalman")
+    assert t.size == it.piece.t.size
+    assert "Monte Carlo" in {x for c in _blueprint_props(rrd).values()
+                             for x in c.get("ContainerBlueprint:display_name") or []}
+
+
+@pytest.mark.parametrize("bad,where", [
+    ([1, 2], "replicates: expected a dict"),
+    ({"held_out": [1.0]}, "replicates['held_out']: expected a dict"),
+    ({"held_out": {"rmse_dph": [1.0]}}, "replicates['held_out']['rmse_dph']: expected a dict"),
+    ({"held_out": {"rmse_dph": {"raw": ["a", 1.0]}}}, "replicates['held_out']['rmse_dph']['raw']"),
+    ({"held_out": {"rmse_dph": {"raw": [[1.0, 2.0]]}}}, "replicates['held_out']['rmse_dph']['raw']"),
+])
+def test_malformed_replicates_are_refused_naming_the_key_before_anything_is_written(
+        tiny, tmp_path, bad, where):
+    res, _, _ = tiny
+    with pytest.raises(R.ReplicatesError) as exc:
+        R.write_recording(res, tmp_path / "recording.rrd", replicates=bad)
+    assert where in str(exc.value)
+    assert not (tmp_path / "recording.rrd").exists()
+
+
+def test_view_says_when_it_handed_the_file_to_a_viewer_already_running(tmp_path, monkeypatch,
+                                                                     capsys):
+    (tmp_path / "recording.rrd").write_bytes(b"x")
+    monkeypatch.setattr(R, "_viewer_command", lambda: ["/opt/fake/rerun"])
+    monkeypatch.setattr(R, "_has_display", lambda: True)
+
+    class Handed(_FakeViewer):
+        def wait(self, timeout=None):
+            return 0                      # the rerun binary exits at once after handing over
+
+    monkeypatch.setattr(R.subprocess, "Popen", Handed)
+    assert R.view(tmp_path) == 0
+    out = capsys.readouterr().out
+    assert "already running" in out and str(tmp_path / "recording.rrd") in out

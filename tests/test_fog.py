@@ -52,11 +52,12 @@ def test_all_terms_off_output_equals_truth():
 
 
 @settings(max_examples=25, deadline=None)
-@given(on=st.sets(st.sampled_from(TERMS), min_size=1), seed=st.integers(0, 2**32 - 1),
+@given(on=st.sets(st.sampled_from([t for t in TERMS if t != "saturation"]), min_size=1), seed=st.integers(0, 2**32 - 1),
        axes=st.sampled_from([("z",), ("x", "y", "z"), ("y", "x")]))
 def test_superposition_and_independent_streams(on, seed, axes):
     """raw = truth + sum of terms; and a term is the same whether or not the others are on
-    (quantisation excepted: it quantises the sum)."""
+    (quantisation excepted: it quantises the sum; saturation, which clips the sum, has its own
+    test below, and ALL_ON has no range)."""
     w, f, T, Td = inputs(3000, seed=1)
     params = FogParams(**{**ALL_ON.__dict__, "disabled": tuple(t for t in TERMS if t not in on)})
     out = simulate_fog(params, FS, w, f, T, Td, axes=axes, seed=seed)

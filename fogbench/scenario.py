@@ -171,6 +171,8 @@ class Scenario:
 _FOG_KEYS = {
     "range_dps": ("range", U.DPS, "float", 0.0, 20_000.0),
     "temp_rate_cooling_ratio": ("temp_rate_cooling_ratio", 1.0, "float", 0.0, 10.0),
+    "gm_drift_dps": ("gm_drift", U.DPS, "float", 0.0, 10.0),
+    "gm_time_constant_s": ("gm_time_constant", 1.0, "float", 0.0, 1e5),
     "bias_dph": ("bias", U.DPH, "float", None),
     "switch_on_bias_dph": ("switch_on_bias_sigma", U.DPH, "float", 0.0),
     "arw_deg_rt_h": ("arw", U.DEG_RT_H, "float", 0.0),
@@ -209,7 +211,7 @@ def _fog(tbl: _Table, fs: float) -> tuple[FogParams, str | None, str, tuple[str,
     kw: dict[str, Any] = {}
     for key, (fld, factor, kind, lo, *hi) in _FOG_KEYS.items():
         v = merged.get(key, kind, None, lo=lo, hi=hi[0] if hi else None,
-                       lo_open=key == "range_dps")
+                       lo_open=key in ("range_dps", "gm_time_constant_s"))
         if v is not None:
             kw[fld] = v * factor
     axes = tuple(merged.get("axes", "strs", ["z"], choices={"x", "y", "z"}))

@@ -23,6 +23,11 @@ f = (fx, fy, fz) (g), coil temperature T (deg C) and its rate Tdot (deg C/s):
   (the slow components' initial values) that the oracle counts as noise. Started from zero, the
   slow components grow as random walks: the Allan curve inside a record is unchanged, only the
   unlabelled offset is gone.
+- ``gm_drift``: a first-order Gauss-Markov drift of standard deviation s and correlation time tc
+  (seconds to minutes: the slow wander of a low-grade open-loop FOG's output, which a Kalman
+  filter on a constant rate keeps and a Mallat split puts in its trend), exact discretisation
+  x[k+1] = phi x[k] + sqrt(1 - phi^2) s e[k], phi = exp(-1 / (fs tc)), started stationary (its
+  memory is far shorter than a record: it is noise, not a switch-on bias).
 - ``rrw``: rate random walk K: the rate's increments per sample have std K sqrt(1/fs).
 - ``rate_ramp``: R t.
 - ``scale_factor``: (k0 + kT (T - T_ref)) w_a + k_nl w_a |w_a| / w_fs  (k_nl at full scale).
@@ -58,7 +63,7 @@ from scipy.signal import lfilter
 
 __all__ = ["FogParams", "FogOutput", "TERMS", "simulate_fog", "bias_instability_components"]
 
-TERMS = ("constant_bias", "switch_on_bias", "arw", "bias_instability", "rrw", "rate_ramp",
+TERMS = ("constant_bias", "switch_on_bias", "arw", "bias_instability", "gm_drift", "rrw", "rate_ramp",
          "scale_factor", "misalignment", "g_sensitivity", "g2_sensitivity", "temperature",
          "saturation", "quantization")
 AXES = {"x": 0, "y": 1, "z": 2}
@@ -75,6 +80,7 @@ class FogParams:
     frequencies spanned by the flicker model. A real FOG's flicker floor runs on to the longest
     averaging times (until rate random walk takes over): keep f_low far below 1 / record length
     (default 1e-6 Hz), or the Allan curve falls again past tau ~ 1 / (2 pi f_low).  bi_per_decade : Gauss-Markov components per decade.
+    gm_drift : s, rad/s.  gm_time_constant : tc, s.
     rrw : rad/s/sqrt(s).  rate_ramp : rad/s^2.  quantization : rad per output quantum.
     scale_factor : k0 (dimensionless).  sf_nonlinearity : k_nl at full scale (dimensionless).
     full_scale : rad/s.  sf_temp_coeff : kT, 1/degC.
@@ -95,6 +101,8 @@ class FogParams:
     bias_instability: float = 0.0
     bi_band: tuple[float, float] = (1e-6, 0.1)
     bi_per_decade: int = 3
+    gm_drift: float = 0.0
+    gm_time_constant: float = 60.0
     rrw: float = 0.0
     rate_ramp: float = 0.0
     quantization: float = 0.0
@@ -136,7 +144,8 @@ class FogOutput:
     axes: tuple[str, ...]
     saturated: np.ndarray | None = None
 
-    def deterministic_error(self, exclude=("arw", "bias_instability", "rrw", "quantization",
+    def deterministic_error(self, exclude=("arw", "bias_instability", "gm_drift", "rrw",
+                                           "quantization",
                                            "saturation")):
         """Sum of the terms a model of the inputs can predict (all but the noises), rad/s."""
         return sum(v for k, v in self.terms.items() if k not in exclude)
@@ -245,6 +254,12 @@ def simulate_fog(params: FogParams, fs: float, truth_rate: np.ndarray, specific_
             put("bias_instability", j, _bias_instability(
                 n, fs, p.bias_instability, p.bi_band, p.bi_per_decade,
                 _stream(seed, "bias_instability", ai)))
+        if p.gm_drift and "gm_drift" in enabled:
+            rng = _stream(seed, "gm_drift", ai)
+            phi = math.exp(-1.0 / (fs * p.gm_time_constant))
+            e = rng.standard_normal(n) * (p.gm_drift * math.sqrt(1.0 - phi * phi))
+            e[0] = rng.standard_normal() * p.gm_drift
+            put("gm_drift", j, lfilter([1.0], [1.0, -phi], e))
         if p.rrw and "rrw" in enabled:
             steps = _stream(seed, "rrw", ai).standard_normal(n) * (p.rrw * math.sqrt(dt))
             put("rrw", j, np.cumsum(steps) - 0.5 * steps)  # mean over each interval

@@ -49,6 +49,8 @@ class Piece:
     temp: np.ndarray
     temp_rate: np.ndarray
     oracle: np.ndarray
+    saturated: np.ndarray | None = None   # (n,) float: fraction of the samples clipped (0 or 1
+    #                                       unsmoothed; the fraction of the block when smoothed)
 
     def gyro(self) -> GyroData:
         return GyroData(rate=self.raw, fs=self.fs, g=self.g, temp=self.temp,
@@ -90,9 +92,13 @@ def make_piece(rd: RunData, sel: Selection, prot: Protocol, axis_j: int) -> Piec
     truth = rd.truth_axis(axis_j)
     det = sum((rd.fog.terms[k][:, axis_j] for k in DETERMINISTIC if k in rd.fog.terms),
               np.zeros(rd.n))
+    # a compensator sees what a lab sees: the temperature sensor's reading and the dT/dt
+    # differenced from it; the oracle (raw minus the true terms) keeps the true coil temperature
+    sat = rd.fog.saturated
     cols = dict(t=rd.truth.t, raw=rd.fog.raw[:, axis_j], truth=truth,
-                g=rd.truth.specific_force, temp=rd.thermal.coil, temp_rate=rd.thermal.coil_rate,
-                oracle=rd.fog.raw[:, axis_j] - det)
+                g=rd.truth.specific_force, temp=rd.thermal.sensor,
+                temp_rate=rd.thermal.sensor_rate, oracle=rd.fog.raw[:, axis_j] - det,
+                saturated=(np.zeros(rd.n) if sat is None else sat[:, axis_j].astype(float)))
     fs = rd.fs
     if prot.smooth_s:
         k = int(round(prot.smooth_s * fs))
@@ -114,7 +120,8 @@ def concat(pieces: list[Piece]) -> Piece:
         return pieces[0]
     return Piece(run="+".join(p.run for p in pieces), fs=pieces[0].fs,
                  **{c: np.concatenate([getattr(p, c) for p in pieces])
-                    for c in ("t", "raw", "truth", "g", "temp", "temp_rate", "oracle")})
+                    for c in ("t", "raw", "truth", "g", "temp", "temp_rate", "oracle",
+                              "saturated")})
 
 
 def thermal_segments(rd: RunData) -> list[tuple[str, float, float]]:
@@ -144,6 +151,8 @@ def score(out: np.ndarray, piece: Piece, raw_ref: dict | None = None) -> dict:
         "mean_error_dph": float(np.mean(err)) / DPH,
     }
     ang = M.integrated_angle_error(out, piece.truth, piece.fs)
+    if piece.saturated is not None and np.any(piece.saturated):
+        m["saturated_pct"] = 100.0 * float(np.mean(piece.saturated))   # output clipped
     m["angle_error_final_deg"] = math.degrees(ang["angle_error_final_rad"])
     m["angle_error_max_deg"] = math.degrees(ang["angle_error_max_rad"])
     # pieces made of separate static dwells (multi-position tests): the drift left at each

@@ -22,7 +22,8 @@ from sim.fog import TERMS, FogParams
 from sim.motion import ConstantRate, Hold, Positions, RateSteps, SineRate, positions_move_fits
 from sim.rate_table import TableConfig
 from sim.rig import PRESETS_PATH, Rig, Run, load_presets
-from sim.thermal import ThermalHold, ThermalProgram, ThermalRamp
+from sim.thermal import (SENSOR_LOCATIONS, TempSensor, ThermalHold, ThermalModel, ThermalProgram,
+                         ThermalRamp)
 
 __all__ = ["ScenarioError", "Scenario", "Run", "load_scenario", "load_presets", "PRESETS_PATH",
            "Selection", "Protocol", "MethodSpec", "Bound", "PaperValue", "Claim", "Plan",
@@ -186,12 +187,13 @@ class Scenario:
     ambient_c: float = 20.0
     extra: dict = field(default_factory=dict, compare=False)  # sections later stages read
     text: str = ""
+    thermal_model: ThermalModel = ThermalModel()
 
     @property
     def rig(self) -> Rig:
         """The rig part: what ``sim.simulate_run`` needs besides a run."""
         return Rig(fs=self.fs, table=self.table, fog=self.fog, axes=self.axes,
-                   ambient_c=self.ambient_c)
+                   ambient_c=self.ambient_c, thermal=self.thermal_model)
 
     def run(self, name: str) -> Run:
         for r in self.runs:
@@ -203,6 +205,10 @@ class Scenario:
 # Scenario [fog] keys: key -> (FogParams field, factor to SI, kind, lo, hi). The limits are
 # physical: beyond them no gyro (MEMS to strategic grade) operates, so a value there is a typo.
 _FOG_KEYS = {
+    "range_dps": ("range", U.DPS, "float", 0.0, 20_000.0),
+    "temp_rate_cooling_ratio": ("temp_rate_cooling_ratio", 1.0, "float", 0.0, 10.0),
+    "gm_drift_dps": ("gm_drift", U.DPS, "float", 0.0, 10.0),
+    "gm_time_constant_s": ("gm_time_constant", 1.0, "float", 0.0, 1e5),
     "bias_dph": ("bias", U.DPH, "float", -1e5, 1e5),
     "switch_on_bias_dph": ("switch_on_bias_sigma", U.DPH, "float", 0.0, 1e5),
     "arw_deg_rt_h": ("arw", U.DEG_RT_H, "float", 0.0, 100.0),
@@ -227,7 +233,8 @@ G_SENS_LIMIT_DPH = 1e4       # deg/h per g (a DTG is ~10, MEMS ~100-1000)
 MISALIGNMENT_LIMIT_MRAD = 100.0
 
 
-def _fog(tbl: _Table, fs: float) -> tuple[FogParams, str | None, str, tuple[str, ...]]:
+def _fog(tbl: _Table, fs: float) -> tuple[FogParams, str | None, str, tuple[str, ...],
+                                          ThermalModel]:
     preset_name = tbl.get("preset", "str", None)
     values: dict[str, Any] = {}
     source = "given in the scenario file"
@@ -242,7 +249,8 @@ def _fog(tbl: _Table, fs: float) -> tuple[FogParams, str | None, str, tuple[str,
     merged.used.add("source")
     kw: dict[str, Any] = {}
     for key, (fld, factor, kind, lo, hi) in _FOG_KEYS.items():
-        v = merged.get(key, kind, None, lo=lo, hi=hi)
+        v = merged.get(key, kind, None, lo=lo, hi=hi,
+                       lo_open=key in ("range_dps", "gm_time_constant_s"))
         if v is not None:
             kw[fld] = v * factor
     axes = tuple(merged.get("axes", "strs", ["z"], choices={"x", "y", "z"}))
@@ -291,8 +299,31 @@ def _fog(tbl: _Table, fs: float) -> tuple[FogParams, str | None, str, tuple[str,
         kw["misalignment"] = tuple(tuple(x * 1e-3 for x in r) for r in mis)
     disabled = merged.get("disabled_terms", "strs", [], choices=set(TERMS))
     kw["disabled"] = tuple(disabled)
+    thermal = _fog_thermal(merged, fs)
     merged.done()
-    return FogParams(**kw), preset_name, source, axes
+    return FogParams(**kw), preset_name, source, axes, thermal
+
+
+def _fog_thermal(tbl: _Table, fs: float) -> ThermalModel:
+    """The FOG's thermal build and temperature sensor ([fog] keys; defaults: one 600 s coil lag
+    behind the chamber, an ideal sensor on the coil)."""
+    d, ds = ThermalModel(), TempSensor()
+    sensor = TempSensor(
+        location=tbl.get("temp_sensor_location", "str", ds.location,
+                         choices=set(SENSOR_LOCATIONS)),
+        time_constant=tbl.get("temp_sensor_time_constant_s", "float", ds.time_constant, lo=0.0,
+                              hi=3600.0),
+        noise=tbl.get("temp_sensor_noise_c", "float", ds.noise, lo=0.0, hi=5.0),
+        resolution=tbl.get("temp_sensor_resolution_c", "float", ds.resolution, lo=0.0, hi=1.0),
+        rate=tbl.get("temp_sensor_rate_hz", "float", ds.rate, lo=0.0, hi=fs),
+        rate_window=tbl.get("temp_rate_window_s", "float", ds.rate_window, lo=0.0, hi=3600.0),
+    )
+    return ThermalModel(
+        housing_time_constant=tbl.get("housing_time_constant_s", "float",
+                                      d.housing_time_constant, lo=0.0, hi=1e5),
+        coil_time_constant=tbl.get("coil_time_constant_s", "float", d.coil_time_constant,
+                                   lo=0.0, hi=1e5),
+        sensor=sensor)
 
 
 def _table_cfg(tbl: _Table) -> TableConfig:
@@ -314,7 +345,9 @@ def _table_cfg(tbl: _Table) -> TableConfig:
 
 def _thermal(tbl: _Table) -> ThermalProgram:
     start = tbl.get("start_c", "float", lo=-80.0, hi=150.0)
-    tau = tbl.get("coil_time_constant_s", "float", 600.0, lo=0.0)
+    # the FOG's own lags are [fog] keys; these override them for this set-up (fixture, air flow)
+    tau = tbl.get("coil_time_constant_s", "float", None, lo=0.0, hi=1e5)
+    tau_h = tbl.get("housing_time_constant_s", "float", None, lo=0.0, hi=1e5)
     steps = []
     for i, st in enumerate(tbl.get("steps", "tables", [])):
         s = _Table(st, f"{tbl.where} steps[{i}]", tbl.file)
@@ -329,7 +362,8 @@ def _thermal(tbl: _Table) -> ThermalProgram:
                         "'rate_c_per_min' (a ramp)")
         s.done()
     tbl.done()
-    return ThermalProgram(start=start, steps=tuple(steps), coil_time_constant=tau)
+    return ThermalProgram(start=start, steps=tuple(steps), coil_time_constant=tau,
+                          housing_time_constant=tau_h)
 
 
 _MOTION_TYPES = ("hold", "rate", "rate_steps", "sine", "positions")
@@ -441,7 +475,8 @@ def load_scenario(path: str | Path, extra_sections: tuple[str, ...] = ()) -> Sce
     ambient = sc.get("ambient_c", "float", 20.0, lo=-80.0, hi=150.0)
     sc.done()
     table = _table_cfg(_Table(top.get("table", "table", {}), "[table]", file))
-    fog, preset, source, axes = _fog(_Table(top.get("fog", "table"), "[fog]", file), fs)
+    fog, preset, source, axes, thermal_model = _fog(_Table(top.get("fog", "table"), "[fog]", file),
+                                                    fs)
     default_thermal = None
     if top.has("thermal"):
         default_thermal = _thermal(_Table(top.get("thermal", "table"), "[thermal]", file))
@@ -489,7 +524,7 @@ def load_scenario(path: str | Path, extra_sections: tuple[str, ...] = ()) -> Sce
     top.done()
     return Scenario(path=file, name=name, description=description, fs=fs, table=table, fog=fog,
                     fog_preset=preset, fog_source=source, axes=axes, runs=tuple(runs),
-                    ambient_c=ambient, extra=extra, text=text)
+                    ambient_c=ambient, extra=extra, text=text, thermal_model=thermal_model)
 
 
 # =============================================================================================

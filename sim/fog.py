@@ -17,7 +17,17 @@ f = (fx, fy, fz) (g), coil temperature T (deg C) and its rate Tdot (deg C/s):
 - ``bias_instability``: flicker (1/f) rate noise with one-sided PSD B^2/(pi f) over a band of
   frequencies, made as a sum of first-order Gauss-Markov processes with log-spaced corner
   frequencies and equal variances (a flat Allan floor of sqrt(2 ln 2 / pi) B = 0.664 B,
-  IEEE Std 952-1997, Annex C), each started from its stationary distribution.
+  IEEE Std 952-1997, Annex C), each started from zero at power-on. The run-to-run part of the
+  bias is the labelled ``switch_on_bias`` (a datasheet's turn-on repeatability); starting the
+  in-run process from its stationary distribution would add a second, unlabelled switch-on bias
+  (the slow components' initial values) that the oracle counts as noise. Started from zero, the
+  slow components grow as random walks: the Allan curve inside a record is unchanged, only the
+  unlabelled offset is gone.
+- ``gm_drift``: a first-order Gauss-Markov drift of standard deviation s and correlation time tc
+  (seconds to minutes: the slow wander of a low-grade open-loop FOG's output, which a Kalman
+  filter on a constant rate keeps and a Mallat split puts in its trend), exact discretisation
+  x[k+1] = phi x[k] + sqrt(1 - phi^2) s e[k], phi = exp(-1 / (fs tc)), started stationary (its
+  memory is far shorter than a record: it is noise, not a switch-on bias).
 - ``rrw``: rate random walk K: the rate's increments per sample have std K sqrt(1/fs).
 - ``rate_ramp``: R t.
 - ``scale_factor``: (k0 + kT (T - T_ref)) w_a + k_nl w_a |w_a| / w_fs  (k_nl at full scale).
@@ -25,9 +35,16 @@ f = (fx, fy, fz) (g), coil temperature T (deg C) and its rate Tdot (deg C/s):
 - ``g_sensitivity``: d1 fx + d2 fy + d3 fz (paper 004, eq. 8, the linear terms).
 - ``g2_sensitivity``: d4 fx^2 + d5 fy^2 + d6 fz^2 + d7 fx fy + d8 fy fz + d9 fx fz (paper 004,
   eq. 8, the quadratic terms), with optional switch-on variation of d1..d9.
-- ``temperature``: c1 (T - T_ref) + c2 (T - T_ref)^2 + c3 Tdot + c4 (T - T_ref) Tdot: the Shupe
-  bias, which is driven by the rate of change of temperature through the coil (paper 002, eq. 1),
-  with a temperature-dependent coefficient, plus the static thermal sensitivity.
+- ``temperature``: c1 (T - T_ref) + c2 (T - T_ref)^2 + a (c3 + c4 (T - T_ref)) Tdot: the Shupe
+  bias, driven by the heat flux into the coil (paper 002, eq. 1: the bias follows dT/dt along the
+  fiber); Tdot is the coil's dTc/dt = (T_housing - T_coil) / tau_coil (``sim.thermal``), so the
+  Shupe bias is zero when there is no gradient between housing and coil. a = 1 while the coil
+  warms and a = ``temp_rate_cooling_ratio`` while it cools (a wound coil's asymmetry between
+  heating and cooling, which gives hysteresis over a heat-and-cool cycle). Plus the static
+  thermal sensitivity in T.
+- ``saturation``: the rate the FOG can measure is limited to +-range (``range_dps``): beyond it
+  the output is clipped (before the pulse counter) and the sample flagged in
+  ``FogOutput.saturated``; the term is the clipped minus the unclipped sum.
 - ``quantization``: the output is the whole number of quanta Q of the accumulated angle, as a
   pulse counter outputs it; the term is the difference this makes.
 
@@ -46,9 +63,9 @@ from scipy.signal import lfilter
 
 __all__ = ["FogParams", "FogOutput", "TERMS", "simulate_fog", "bias_instability_components"]
 
-TERMS = ("constant_bias", "switch_on_bias", "arw", "bias_instability", "rrw", "rate_ramp",
+TERMS = ("constant_bias", "switch_on_bias", "arw", "bias_instability", "gm_drift", "rrw", "rate_ramp",
          "scale_factor", "misalignment", "g_sensitivity", "g2_sensitivity", "temperature",
-         "quantization")
+         "saturation", "quantization")
 AXES = {"x": 0, "y": 1, "z": 2}
 
 
@@ -63,6 +80,7 @@ class FogParams:
     frequencies spanned by the flicker model. A real FOG's flicker floor runs on to the longest
     averaging times (until rate random walk takes over): keep f_low far below 1 / record length
     (default 1e-6 Hz), or the Allan curve falls again past tau ~ 1 / (2 pi f_low).  bi_per_decade : Gauss-Markov components per decade.
+    gm_drift : s, rad/s.  gm_time_constant : tc, s.
     rrw : rad/s/sqrt(s).  rate_ramp : rad/s^2.  quantization : rad per output quantum.
     scale_factor : k0 (dimensionless).  sf_nonlinearity : k_nl at full scale (dimensionless).
     full_scale : rad/s.  sf_temp_coeff : kT, 1/degC.
@@ -73,6 +91,8 @@ class FogParams:
     g_sens_switch_on_sigma : rad/s/g.  g2_sens_switch_on_sigma : rad/s/g^2.
     temp_ref : degC.  temp_coeff : rad/s/degC.  temp_coeff2 : rad/s/degC^2.
     temp_rate_coeff : rad/s per (degC/s).  temp_cross_coeff : rad/s per (degC * degC/s).
+    temp_rate_cooling_ratio : the Shupe coefficients' factor while the coil cools (1: symmetric).
+    range : measurement range, rad/s (inf: none); the output is clipped to +-range.
     """
 
     bias: float = 0.0
@@ -81,6 +101,8 @@ class FogParams:
     bias_instability: float = 0.0
     bi_band: tuple[float, float] = (1e-6, 0.1)
     bi_per_decade: int = 3
+    gm_drift: float = 0.0
+    gm_time_constant: float = 60.0
     rrw: float = 0.0
     rate_ramp: float = 0.0
     quantization: float = 0.0
@@ -98,6 +120,8 @@ class FogParams:
     temp_coeff2: float = 0.0
     temp_rate_coeff: float = 0.0
     temp_cross_coeff: float = 0.0
+    temp_rate_cooling_ratio: float = 1.0
+    range: float = math.inf
     disabled: tuple[str, ...] = field(default=())
 
 
@@ -111,14 +135,18 @@ class FogOutput:
     read-only views (a constant term is a broadcast scalar): copy before changing them.
     draws : the switch-on values of this power-on (SI): ``switch_on_bias`` (n_axes,),
     ``g_sens`` (n_axes, 3), ``g2_sens`` (n_axes, 6).
+    saturated : shape (n, n_axes), bool: the rate was beyond the measurement range (clipped).
     """
 
     raw: np.ndarray
     terms: dict[str, np.ndarray]
     draws: dict[str, np.ndarray]
     axes: tuple[str, ...]
+    saturated: np.ndarray | None = None
 
-    def deterministic_error(self, exclude=("arw", "bias_instability", "rrw", "quantization")):
+    def deterministic_error(self, exclude=("arw", "bias_instability", "gm_drift", "rrw",
+                                           "quantization",
+                                           "saturation")):
         """Sum of the terms a model of the inputs can predict (all but the noises), rad/s."""
         return sum(v for k, v in self.terms.items() if k not in exclude)
 
@@ -156,9 +184,8 @@ def _bias_instability(n, fs, B, band, per_decade, rng):
     for fc in corners:
         phi = math.exp(-2.0 * math.pi * fc / fsd)
         w = rng.standard_normal(m) * sigma * math.sqrt(1.0 - phi * phi)
-        x0 = rng.standard_normal() * sigma
-        y, _ = lfilter([1.0], [1.0, -phi], w, zi=[phi * x0])
-        total += y
+        w[0] = 0.0   # every component starts from zero at power-on (see the module doc)
+        total += lfilter([1.0], [1.0, -phi], w)
     if dec == 1:
         return total[:n]
     return np.interp(np.arange(n) / dec, np.arange(m), total)
@@ -227,6 +254,12 @@ def simulate_fog(params: FogParams, fs: float, truth_rate: np.ndarray, specific_
             put("bias_instability", j, _bias_instability(
                 n, fs, p.bias_instability, p.bi_band, p.bi_per_decade,
                 _stream(seed, "bias_instability", ai)))
+        if p.gm_drift and "gm_drift" in enabled:
+            rng = _stream(seed, "gm_drift", ai)
+            phi = math.exp(-1.0 / (fs * p.gm_time_constant))
+            e = rng.standard_normal(n) * (p.gm_drift * math.sqrt(1.0 - phi * phi))
+            e[0] = rng.standard_normal() * p.gm_drift
+            put("gm_drift", j, lfilter([1.0], [1.0, -phi], e))
         if p.rrw and "rrw" in enabled:
             steps = _stream(seed, "rrw", ai).standard_normal(n) * (p.rrw * math.sqrt(dt))
             put("rrw", j, np.cumsum(steps) - 0.5 * steps)  # mean over each interval
@@ -251,12 +284,17 @@ def simulate_fog(params: FogParams, fs: float, truth_rate: np.ndarray, specific_
             fx, fy, fz = f[:, 0], f[:, 1], f[:, 2]
             put("g2_sensitivity", j, (d[0] * fx + d[3] * fy + d[5] * fz) * fx
                 + (d[1] * fy + d[4] * fz) * fy + d[2] * fz * fz)
+        shupe = None
+        if Tdot is not None and (p.temp_rate_coeff or p.temp_cross_coeff):
+            cross = 0.0 if dT is None else p.temp_cross_coeff * dT
+            shupe = (p.temp_rate_coeff + cross) * Tdot
+            if p.temp_rate_cooling_ratio != 1.0:
+                shupe = np.where(Tdot < 0.0, p.temp_rate_cooling_ratio * shupe, shupe)
         if dT is not None and (p.temp_coeff or p.temp_coeff2):
             put("temperature", j, (p.temp_coeff + p.temp_coeff2 * dT) * dT
-                + (0.0 if Tdot is None else (p.temp_rate_coeff + p.temp_cross_coeff * dT) * Tdot))
-        elif Tdot is not None and (p.temp_rate_coeff or p.temp_cross_coeff):
-            cross = 0.0 if dT is None else p.temp_cross_coeff * dT
-            put("temperature", j, (p.temp_rate_coeff + cross) * Tdot)
+                + (0.0 if shupe is None else shupe))
+        elif shupe is not None:
+            put("temperature", j, shupe)
 
     terms = {}
     for t in TERMS:
@@ -272,6 +310,13 @@ def simulate_fog(params: FogParams, fs: float, truth_rate: np.ndarray, specific_
     for k, v in terms.items():
         if k != "quantization":
             cont += v
+    saturated = np.zeros((n, na), dtype=bool)
+    if math.isfinite(p.range):
+        saturated = np.abs(cont) > p.range
+        if saturated.any() and "saturation" in enabled:
+            clipped = np.clip(cont, -p.range, p.range)
+            terms["saturation"] = clipped - cont
+            cont = clipped
     if "quantization" in enabled and p.quantization:
         Q = p.quantization
         qterm = np.empty((n, na))
@@ -284,4 +329,4 @@ def simulate_fog(params: FogParams, fs: float, truth_rate: np.ndarray, specific_
         raw = cont + qterm
     else:
         raw = cont
-    return FogOutput(raw=raw, terms=terms, draws=draws, axes=tuple(axes))
+    return FogOutput(raw=raw, terms=terms, draws=draws, axes=tuple(axes), saturated=saturated)

@@ -3,7 +3,12 @@
 The table is driven open-loop by servo commands built from a motion program (``sim.motion``) and
 rolled out with ``mujoco.rollout`` in C. Truth at the FOG is what MuJoCo's ``gyro`` and
 ``accelerometer`` sensors at the FOG site read, averaged over each FOG sample interval (a FOG
-outputs angle increments), plus the Earth's rate added analytically (``sim.earth``).
+outputs angle increments), plus the Earth's rate added analytically (``sim.earth``), averaged over
+the sample in the same way: the world-fixed Earth rate is projected on the sensor axes at every
+physics step (through the mean over the sample of the rotation matrix, which is linear in the
+products of the quaternion's components) and averaged, so a sensor axis that turns 60 deg within
+one sample gets the mean, not the sample-start value. (``gravity``, the reference projection of
+'up', stays the sample-start value, of norm exactly g / G0; the specific force is averaged.)
 
 Static holds longer than ``settle_time`` are simulated until the table has settled and then
 continued at the settled state: a table at rest under a constant command stays at rest, and a
@@ -158,8 +163,9 @@ class _Roller:
 
     CHUNK_SAMPLES = 20_000
 
-    def __init__(self, model, k: int):
-        self.model, self.k = model, k
+    def __init__(self, model, k: int, quat: slice):
+        self.model, self.k, self.quat = model, k, quat
+        self.qq: list[np.ndarray] = []  # per sample: mean over its steps of q_i q_j, (4, 4)
         self.data = mujoco.MjData(model)
         self.nstate = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_FULLPHYSICS)
         self.state = np.zeros(self.nstate)
@@ -195,6 +201,8 @@ class _Roller:
             sd = sd[0].reshape(ns, k, -1)
             self.means.append(sd.mean(axis=1))
             self.firsts.append(sd[:, 0].copy())
+            q = sd[:, :, self.quat]
+            self.qq.append(np.einsum("nki,nkj->nij", q, q) / k)
             cc = c[:, [0, 2]].reshape(ns, k, -1)
             self.ctrl_means.append(cc.mean(axis=1))
             self.ctrl_firsts.append(cc[:, 0].copy())
@@ -206,13 +214,32 @@ class _Roller:
 
     def repeat_last(self, ns: int, dt_total: float):
         """Continue the settled state for ``ns`` more samples (time advances, nothing moves)."""
-        for lst in (self.means, self.firsts, self.ctrl_means, self.ctrl_firsts):
+        for lst in (self.means, self.firsts, self.ctrl_means, self.ctrl_firsts, self.qq):
             lst.append(np.repeat(lst[-1][-1:], ns, axis=0))
         self.state[0] += dt_total
 
     def collect(self):
         return (np.concatenate(self.means), np.concatenate(self.firsts),
-                np.concatenate(self.ctrl_means), np.concatenate(self.ctrl_firsts))
+                np.concatenate(self.ctrl_means), np.concatenate(self.ctrl_firsts),
+                np.concatenate(self.qq))
+
+
+def _mean_rotation(qq: np.ndarray) -> np.ndarray:
+    """Mean over a sample of the rotation matrix (frame -> world) of unit quaternions (w, x, y,
+    z), from the means of the products q_i q_j, shape (n, 4, 4) -> (n, 3, 3)."""
+    w, x, y, z = 0, 1, 2, 3
+    P = lambda i, j: qq[:, i, j]  # noqa: E731
+    R = np.empty(qq.shape[:1] + (3, 3))
+    R[:, 0, 0] = P(w, w) + P(x, x) - P(y, y) - P(z, z)
+    R[:, 0, 1] = 2 * (P(x, y) - P(w, z))
+    R[:, 0, 2] = 2 * (P(x, z) + P(w, y))
+    R[:, 1, 0] = 2 * (P(x, y) + P(w, z))
+    R[:, 1, 1] = P(w, w) - P(x, x) + P(y, y) - P(z, z)
+    R[:, 1, 2] = 2 * (P(y, z) - P(w, x))
+    R[:, 2, 0] = 2 * (P(x, z) - P(w, y))
+    R[:, 2, 1] = 2 * (P(y, z) + P(w, x))
+    R[:, 2, 2] = P(w, w) - P(x, x) - P(y, y) + P(z, z)
+    return R
 
 
 def simulate_truth(segments, fs: float, cfg: TableConfig = TableConfig(), tilt0: float = 0.0,
@@ -225,7 +252,7 @@ def simulate_truth(segments, fs: float, cfg: TableConfig = TableConfig(), tilt0:
     k, dt = substeps_for(fs, cfg.physics_dt)
     model = load_model(cfg, dt)
     sl = _sensor_slices(model)
-    roller = _Roller(model, k)
+    roller = _Roller(model, k, sl["fog_quat"])
     roller.set_tilt(tilt0)
     settle_samples = max(1, int(round(cfg.settle_time * fs)))
     total = sum(seg.duration for seg in segments)
@@ -258,16 +285,17 @@ def simulate_truth(segments, fs: float, cfg: TableConfig = TableConfig(), tilt0:
         if progress is not None:
             progress(done / total)
 
-    means, firsts, cmean, cfirst = roller.collect()
+    means, firsts, cmean, cfirst, qq = roller.collect()
     ns = means.shape[0]
     table_rate = means[:, sl["fog_gyro"]]
     fog_quat = firsts[:, sl["fog_quat"]]
+    R_mean = _mean_rotation(qq)   # mean over each sample of R (sensor -> world)
     world_up = np.broadcast_to([0.0, 0.0, cfg.gravity / G0], (ns, 3))
-    gravity = _quat_rotate_inv(fog_quat, world_up)
+    gravity = _quat_rotate_inv(fog_quat, world_up)   # at the sample's start, of norm g / G0
     rate = table_rate.copy()
     if cfg.earth_rate:
         w_world = earth.earth_rate_world(cfg.latitude, cfg.heading)
-        rate += _quat_rotate_inv(fog_quat, np.broadcast_to(w_world, (ns, 3)))
+        rate += np.einsum("nji,j->ni", R_mean, w_world)
     return Truth(
         t=np.arange(ns) / fs, fs=fs, rate=rate, table_rate=table_rate,
         specific_force=means[:, sl["fog_accel"]] / G0, gravity=gravity,

@@ -15,7 +15,7 @@ import numpy as np
 
 from .fog import FogOutput, FogParams, simulate_fog
 from .rate_table import TableConfig, Truth, simulate_truth
-from .thermal import Thermal, ThermalProgram, simulate_thermal
+from .thermal import Thermal, ThermalModel, ThermalProgram, simulate_thermal
 
 __all__ = ["Rig", "Run", "RunData", "simulate_run", "load_presets", "PRESETS_PATH"]
 
@@ -30,13 +30,15 @@ def load_presets(path: Path = PRESETS_PATH) -> dict[str, dict]:
 
 @dataclass(frozen=True)
 class Rig:
-    """The simulated rig: FOG output rate, table, FOG error model, sensitive axes, ambient."""
+    """The simulated rig: FOG output rate, table, FOG error model, sensitive axes, ambient, and
+    the FOG's thermal build (housing and coil lags, temperature sensor)."""
 
     fs: float
     table: TableConfig
     fog: FogParams
     axes: tuple[str, ...]
     ambient_c: float = 20.0
+    thermal: ThermalModel = ThermalModel()
 
 
 @dataclass(frozen=True)
@@ -77,9 +79,10 @@ class RunData:
 def simulate_run(rig: Rig, run: Run, progress=None) -> RunData:
     """Simulate one power-on. ``progress(fraction)`` is called as the table runs."""
     truth = simulate_truth(run.motion, rig.fs, rig.table, tilt0=run.tilt0, progress=progress)
-    program = run.thermal or ThermalProgram(start=rig.ambient_c, steps=(),
-                                            coil_time_constant=0.0)
-    thermal = simulate_thermal(program, truth.t)
+    program = run.thermal or ThermalProgram(start=rig.ambient_c, steps=())
+    # the FOG's error model gets the true coil temperature and heat flux; the sensor's reading
+    # (thermal.sensor, thermal.sensor_rate) is what a compensator may see
+    thermal = simulate_thermal(program, truth.t, rig.thermal, seed=run.seed)
     fog = simulate_fog(rig.fog, rig.fs, truth.rate, truth.specific_force,
                        temp=thermal.coil, temp_rate=thermal.coil_rate, axes=rig.axes,
                        seed=run.seed)

@@ -1,21 +1,41 @@
-"""Thermal chamber programs and the fiber coil's first-order lag.
+"""Thermal chamber programs, the FOG's thermal nodes and its temperature sensor.
 
 A program starts at ``start_c`` and is a list of holds (``duration_s``) and ramps (``to_c`` at
-``rate_c_per_min``). The chamber air temperature is piecewise linear; the coil follows through a
-first-order lag with time constant ``tau`` (s), solved exactly for a piecewise-linear input
-(first-order-hold discretisation), so the result does not depend on the sample rate.
-Past the end of the program the chamber holds its last temperature.
+``rate_c_per_min``). The chamber air temperature is piecewise linear; past the end of the program
+the chamber holds its last temperature.
+
+The FOG is two thermal nodes in a chain, chamber -> housing -> coil, each a first-order lag::
+
+    dTh/dt = (Tch - Th) / tau_h          dTc/dt = (Th - Tc) / tau_c
+
+(a lumped model of a FOG package: housing and mount, then the fiber coil inside it). The heat
+flux into the coil is proportional to the gradient Th - Tc, and so is dTc/dt: it is the Shupe
+bias's driver (paper 002, eq. 1: the bias follows dT/dt along the fiber), zero when the coil is
+in equilibrium with its housing. The chain is solved exactly for a piecewise-linear chamber
+(first-order-hold discretisation of each lag; the coil as the partial-fraction sum of the two
+lags), so the result does not depend on the sample rate. The FOG starts soaked at the chamber's
+start temperature.
+
+A lab does not know the coil temperature: it reads a sensor. :class:`TempSensor` sits on the
+housing or the coil, follows it through its own lag, is read at its own rate with white noise
+and quantised to its resolution (e.g. 0.0625 C, a 12-bit digital sensor); the lab differences the
+readings for dT/dt. Compensators get the sensor's reading and that difference; the true coil
+temperature stays in the truth.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+import zlib
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.signal import lfilter
 
-__all__ = ["ThermalHold", "ThermalRamp", "ThermalProgram", "Thermal", "simulate_thermal"]
+__all__ = ["ThermalHold", "ThermalRamp", "ThermalProgram", "TempSensor", "ThermalModel",
+           "Thermal", "simulate_thermal", "SENSOR_LOCATIONS"]
+
+SENSOR_LOCATIONS = ("housing", "coil")
 
 
 @dataclass(frozen=True)
@@ -31,9 +51,14 @@ class ThermalRamp:
 
 @dataclass(frozen=True)
 class ThermalProgram:
+    """A chamber program. ``coil_time_constant`` and ``housing_time_constant`` (s), when given,
+    override the FOG's own (:class:`ThermalModel`) for this program's set-up (a fixture, the
+    chamber's air flow); None keeps the device's."""
+
     start: float = 20.0             # deg C
     steps: tuple = ()
-    coil_time_constant: float = 600.0  # s
+    coil_time_constant: float | None = None
+    housing_time_constant: float | None = None
 
     def breakpoints(self) -> tuple[np.ndarray, np.ndarray]:
         """Times (s) and chamber temperatures (deg C) of the piecewise-linear program."""
@@ -53,31 +78,163 @@ class ThermalProgram:
 
 
 @dataclass(frozen=True)
+class TempSensor:
+    """The temperature sensor a lab reads (SI; temperatures in deg C).
+
+    location : "housing" or "coil", the node it is bonded to.
+    time_constant : its own first-order lag behind that node, s (0: none).
+    noise : white noise per reading, deg C (1 sigma).
+    resolution : quantisation step, deg C (0: none); 0.0625 C is a 12-bit digital sensor's LSB.
+    rate : readings per second, Hz (0: one per FOG sample). Between readings the last is held.
+    rate_window : dT/dt is the central difference of the readings over this baseline, s (at least
+        two readings; one-sided at the ends of the record), as a lab differences its log.
+    """
+
+    location: str = "coil"
+    time_constant: float = 0.0
+    noise: float = 0.0
+    resolution: float = 0.0
+    rate: float = 0.0
+    rate_window: float = 0.0
+
+    def __post_init__(self):
+        if self.location not in SENSOR_LOCATIONS:
+            raise ValueError(f"TempSensor.location must be one of {SENSOR_LOCATIONS}, "
+                             f"got {self.location!r}")
+        for k in ("time_constant", "noise", "resolution", "rate", "rate_window"):
+            if not getattr(self, k) >= 0.0:
+                raise ValueError(f"TempSensor.{k} must be >= 0, got {getattr(self, k)!r}")
+
+
+@dataclass(frozen=True)
+class ThermalModel:
+    """The FOG's thermal build: lags chamber -> housing -> coil (s) and its sensor."""
+
+    housing_time_constant: float = 0.0
+    coil_time_constant: float = 600.0
+    sensor: TempSensor = field(default_factory=TempSensor)
+
+
+@dataclass(frozen=True)
 class Thermal:
-    """Temperatures at the sample times: chamber and coil in deg C, coil rate in deg C/s."""
+    """Temperatures at the sample times (deg C; rates deg C/s), each shape (n,).
+
+    chamber, housing, coil : the true node temperatures.  coil_rate : true dTc/dt, which is the
+    heat flux into the coil over its heat capacity, (Th - Tc) / tau_c.  sensor : what the
+    temperature sensor reads (held between readings).  sensor_rate : dT/dt differenced from the
+    readings.
+    """
 
     chamber: np.ndarray
     coil: np.ndarray
     coil_rate: np.ndarray
+    housing: np.ndarray | None = None
+    sensor: np.ndarray | None = None
+    sensor_rate: np.ndarray | None = None
+
+    def __post_init__(self):
+        if self.housing is None:
+            object.__setattr__(self, "housing", self.chamber)
+        if self.sensor is None:
+            object.__setattr__(self, "sensor", self.coil)
+        if self.sensor_rate is None:
+            object.__setattr__(self, "sensor_rate", self.coil_rate)
 
 
-def simulate_thermal(program: ThermalProgram, t: np.ndarray) -> Thermal:
-    """Chamber and coil temperature at the (uniformly spaced) times ``t`` (s)."""
+def _lag(u: np.ndarray, h: float, tau: float, x0: float) -> np.ndarray:
+    """First-order lag of u sampled every h (s), exact for u linear between samples."""
+    if tau <= 0.0:
+        return u.copy()
+    a = math.exp(-h / tau)
+    # x[k+1] = a x[k] + u[k+1] - a u[k] - tau (1 - a) (u[k+1] - u[k]) / h
+    v = u[1:] - a * u[:-1] - tau * (1.0 - a) * (u[1:] - u[:-1]) / h
+    rest, _ = lfilter([1.0], [1.0, -a], v, zi=[a * x0])
+    return np.concatenate([[x0], rest])
+
+
+def _chain(u: np.ndarray, h: float, tau_h: float, tau_c: float):
+    """Housing and coil temperature and dTc/dt for chamber samples u (spacing h, s)."""
+    x0 = float(u[0])
+    housing = _lag(u, h, tau_h, x0)
+    if tau_c <= 0.0:
+        coil = housing
+        rate = (u - housing) / tau_h if tau_h > 0 else np.gradient(u, h)
+        return housing, coil.copy(), rate
+    if tau_h <= 0.0:
+        coil = _lag(u, h, tau_c, x0)
+    else:
+        # 1 / ((1 + s th)(1 + s tc)) = (th L_th - tc L_tc) / (th - tc); for th = tc the limit,
+        # taken here by separating the two by 1e-6 relative (an error of order 1e-6 of the
+        # transient, far below the sensor's resolution)
+        th, tc = tau_h, tau_c
+        if abs(th - tc) < 1e-6 * max(th, tc):
+            th = tc * (1.0 + 1e-6)
+        coil = (th * _lag(u, h, th, x0) - tc * _lag(u, h, tc, x0)) / (th - tc)
+    return housing, coil, (housing - coil) / tau_c
+
+
+def _stream(seed: int, name: str) -> np.random.Generator:
+    return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(zlib.crc32(name.encode()),)))
+
+
+def read_sensor(node: np.ndarray, t: np.ndarray, sensor: TempSensor, seed: int = 0):
+    """The sensor's readings of ``node`` (deg C at times t, s, uniform) and the dT/dt a lab
+    differences from them (deg C/s), both held at the sample times."""
+    n = t.size
+    h = t[1] - t[0] if n > 1 else 1.0
+    lagged = _lag(node, h, sensor.time_constant, float(node[0])) if n > 1 else node.copy()
+    if sensor.rate > 0.0 and sensor.rate < 1.0 / h:
+        tr = np.arange(0.0, t[-1] - t[0] + 1e-9 * h, 1.0 / sensor.rate)
+        val = np.interp(tr, t - t[0], lagged)
+        held = np.minimum(np.floor((t - t[0]) * sensor.rate + 1e-9).astype(int), tr.size - 1)
+        dtr = 1.0 / sensor.rate
+    else:
+        val = lagged.copy()
+        held = np.arange(n)
+        dtr = h
+    if sensor.noise > 0.0:
+        val = val + _stream(seed, "temp_sensor").standard_normal(val.size) * sensor.noise
+    if sensor.resolution > 0.0:
+        val = np.round(val / sensor.resolution) * sensor.resolution
+    m = val.size
+    if m < 2:
+        return val[held], np.zeros(n)
+    half = max(1, int(round(sensor.rate_window / dtr / 2.0)))
+    k = np.arange(m)
+    hi = np.minimum(k + half, m - 1)
+    lo = np.maximum(k - half, 0)
+    rate = (val[hi] - val[lo]) / ((hi - lo) * dtr)
+    return val[held], rate[held]
+
+
+def simulate_thermal(program: ThermalProgram, t: np.ndarray, model: ThermalModel | None = None,
+                     seed: int = 0) -> Thermal:
+    """Chamber, housing, coil and sensor temperatures at the (uniformly spaced) times ``t`` (s).
+
+    Parameters
+    ----------
+    program : ThermalProgram
+        The chamber program; its time constants, when set, override the model's.
+    t : ndarray, shape (n,)
+        Sample times, s.
+    model : ThermalModel, optional
+        The FOG's thermal nodes and sensor (default: one coil lag of 600 s, an ideal sensor on
+        the coil).
+    seed : int
+        Seed of the power-on; the sensor's noise has its own stream derived from it.
+    """
+    model = model or ThermalModel()
+    tau_c = model.coil_time_constant if program.coil_time_constant is None \
+        else program.coil_time_constant
+    tau_h = model.housing_time_constant if program.housing_time_constant is None \
+        else program.housing_time_constant
     bt, btemp = program.breakpoints()
     chamber = np.interp(t, bt, btemp)
-    tau = program.coil_time_constant
-    if tau <= 0:
-        return Thermal(chamber, chamber.copy(), np.gradient(chamber, t) if t.size > 1 else
-                       np.zeros_like(t))
     if t.size < 2:
-        return Thermal(chamber, chamber.copy(), np.zeros_like(t))
+        z = np.zeros_like(t)
+        return Thermal(chamber, chamber.copy(), z, chamber.copy(), chamber.copy(), z)
     h = t[1] - t[0]
-    a = math.exp(-h / tau)
-    u = chamber
-    # x[k+1] = a x[k] + u[k+1] - a u[k] - tau (1 - a) (u[k+1] - u[k]) / h, exact for linear u
-    # between samples. Breakpoints between samples are approximated by linear interpolation.
-    v = u[1:] - a * u[:-1] - tau * (1.0 - a) * (u[1:] - u[:-1]) / h
-    x0 = np.interp(t[0], bt, btemp)  # the coil starts soaked at the chamber temperature
-    rest, _ = lfilter([1.0], [1.0, -a], v, zi=[a * x0])
-    coil = np.concatenate([[x0], rest])
-    return Thermal(chamber, coil, (chamber - coil) / tau)
+    housing, coil, coil_rate = _chain(chamber, h, tau_h, tau_c)
+    node = housing if model.sensor.location == "housing" else coil
+    sensor, sensor_rate = read_sensor(node, t, model.sensor, seed)
+    return Thermal(chamber, coil, coil_rate, housing, sensor, sensor_rate)

@@ -27,7 +27,8 @@ def inputs(n, seed=0, moving=True):
 
 ALL_ON = FogParams(
     bias=1 * U.DPH, switch_on_bias_sigma=0.5 * U.DPH, arw=0.03 * U.DEG_RT_H,
-    bias_instability=0.1 * U.DPH, rrw=0.1 * U.DPH_RT_H, rate_ramp=0.5 * U.DPH_PER_H,
+    bias_instability=0.1 * U.DPH, gm_drift=0.5 * U.DPH, gm_time_constant=10.0,
+    rrw=0.1 * U.DPH_RT_H, rate_ramp=0.5 * U.DPH_PER_H,
     quantization=0.5 * U.ARCSEC, scale_factor=100e-6, sf_nonlinearity=50e-6, sf_temp_coeff=1e-6,
     misalignment=((0, 1e-4, -2e-4), (3e-4, 0, 1e-4), (-1e-4, 2e-4, 0)),
     g_sens=(0.1 * U.DPH, -0.2 * U.DPH, 0.3 * U.DPH),
@@ -52,11 +53,12 @@ def test_all_terms_off_output_equals_truth():
 
 
 @settings(max_examples=25, deadline=None)
-@given(on=st.sets(st.sampled_from(TERMS), min_size=1), seed=st.integers(0, 2**32 - 1),
+@given(on=st.sets(st.sampled_from([t for t in TERMS if t != "saturation"]), min_size=1), seed=st.integers(0, 2**32 - 1),
        axes=st.sampled_from([("z",), ("x", "y", "z"), ("y", "x")]))
 def test_superposition_and_independent_streams(on, seed, axes):
     """raw = truth + sum of terms; and a term is the same whether or not the others are on
-    (quantisation excepted: it quantises the sum)."""
+    (quantisation excepted: it quantises the sum; saturation, which clips the sum, has its own
+    test below, and ALL_ON has no range)."""
     w, f, T, Td = inputs(3000, seed=1)
     params = FogParams(**{**ALL_ON.__dict__, "disabled": tuple(t for t in TERMS if t not in on)})
     out = simulate_fog(params, FS, w, f, T, Td, axes=axes, seed=seed)
@@ -211,3 +213,54 @@ def test_bias_instability_psd_is_one_over_f_in_band():
     np.testing.assert_allclose(S / continuum, 1.0, rtol=0.02)
     mid = (f > 3e-3) & (f < 3e-2)
     np.testing.assert_allclose(S[mid] * np.pi * f[mid] / B**2, 1.0, rtol=0.03)
+
+
+def test_saturation_clips_and_flags():
+    """Beyond the measurement range the output is clipped to +-range and the sample flagged;
+    inside it nothing changes; raw = truth + terms still holds."""
+    n = 2000
+    w = np.zeros((n, 3))
+    w[:, 2] = np.linspace(-10.0, 10.0, n)             # rad/s, through +-573 deg/s
+    R = math.radians(400.0)
+    p = FogParams(range=R, scale_factor=1e-3)
+    out = simulate_fog(p, FS, w, np.tile([0, 0, 1.0], (n, 1)), axes=("z",), seed=0)
+    sensed = w[:, 2] * (1 + 1e-3)
+    beyond = np.abs(sensed) > R
+    assert beyond.any() and (~beyond).any()
+    np.testing.assert_array_equal(out.saturated[:, 0], beyond)
+    np.testing.assert_allclose(out.raw[beyond, 0], np.sign(sensed[beyond]) * R, rtol=1e-15)
+    np.testing.assert_allclose(out.raw[~beyond, 0], sensed[~beyond], rtol=1e-14)
+    np.testing.assert_allclose(out.raw, w[:, [2]] + sum(out.terms.values()), atol=1e-14)
+    # without a range nothing is clipped
+    free = simulate_fog(FogParams(scale_factor=1e-3), FS, w, np.tile([0, 0, 1.0], (n, 1)))
+    assert not free.saturated.any() and "saturation" not in free.terms
+
+
+def test_gauss_markov_drift_has_its_variance_and_correlation_time():
+    """Stationary first-order Gauss-Markov: variance s^2 and autocorrelation exp(-lag / tc)."""
+    s, tc, n = 0.1, 2.0, 400_000
+    out = simulate_fog(only("gm_drift", FogParams(gm_drift=s, gm_time_constant=tc)), FS,
+                       np.zeros((n, 3)), np.tile([0, 0, 1.0], (n, 1)), axes=("z",), seed=5)
+    x = out.terms["gm_drift"][:, 0]
+    assert np.std(x) == pytest.approx(s, rel=0.05)
+    lag = int(tc * FS)
+    rho = np.corrcoef(x[:-lag], x[lag:])[0, 1]
+    assert rho == pytest.approx(math.exp(-1.0), abs=0.03)
+
+
+def test_bias_instability_starts_from_zero_at_power_on():
+    """The in-run flicker process starts at zero at every power-on (its run-to-run part is the
+    labelled switch-on bias): over many power-ons the first sample's spread is far below the
+    stationary spread, and it grows with time."""
+    B = 1.0 * U.DPH
+    p = FogParams(bias_instability=B, bi_band=(1e-6, 0.1))
+    n, firsts, lasts = 2000, [], []
+    for seed in range(200):
+        x = simulate_fog(only("bias_instability", p), 1.0, np.zeros((n, 3)),
+                         np.tile([0, 0, 1.0], (n, 1)), axes=("z",), seed=seed).raw[:, 0]
+        firsts.append(x[0])
+        lasts.append(x[-1])
+    corners, sigma = bias_instability_components(B, (1e-6, 0.1), 3)
+    stationary = sigma * math.sqrt(len(corners))
+    assert np.std(firsts) < 0.01 * stationary
+    assert np.std(lasts) > 10 * np.std(firsts)

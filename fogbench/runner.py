@@ -14,7 +14,7 @@ import math
 import time
 import traceback
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -26,6 +26,7 @@ from fogcomp.units import DPH, DPS
 from sim.rig import RunData, simulate_run
 from sim.thermal import ThermalHold
 
+from .executor import replicate_seed
 from .io import atomic_write_text, versions
 from .scenario import (RUNNER_SECTIONS, Plan, Protocol, Scenario, Selection, expand, load_plan,
                        load_scenario, select_indices)
@@ -66,6 +67,7 @@ class Scored:
     piece: Piece
     outputs: dict[str, np.ndarray] = field(default_factory=dict)   # label -> compensated rate
     metrics: dict[str, dict] = field(default_factory=dict)         # label -> metric -> value
+    seed_metrics: dict[str, list] = field(default_factory=dict)    # label -> [metrics per seed]
 
 
 @dataclass
@@ -207,8 +209,17 @@ def _ident_record(model) -> dict | None:
     return rec
 
 
-def run_scenario(path, progress=None, methods: list[str] | None = None) -> ScenarioResult:
-    """Simulate and score one scenario file. ``progress(message)`` reports each step."""
+def run_scenario(path, progress=None, methods: list[str] | None = None, replicate: int = 0,
+                 method_seeds: int = 1, truths: dict | None = None) -> ScenarioResult:
+    """Simulate and score one scenario file. ``progress(message)`` reports each step.
+
+    ``replicate`` r draws every random stream (the FOG's switch-on draws and noise, the
+    temperature sensor's noise, every random method's start) from coordinates (scenario seed, r,
+    run, stream) alone (:func:`replicate_seeds`); replicate 0 uses the runs' own seeds, as a single
+    run always did. ``method_seeds`` K > 1 fits every method that draws random numbers K times
+    per fit, with K seeds (their metrics in ``Scored.seed_metrics``). ``truths`` (run name ->
+    ``Truth``) caches the deterministic table motion between replicates: filled when empty.
+    """
     t_start = time.monotonic()
     say = progress or (lambda msg: None)
     sc = load_scenario(path, extra_sections=RUNNER_SECTIONS)
@@ -218,13 +229,18 @@ def run_scenario(path, progress=None, methods: list[str] | None = None) -> Scena
         if unknown:
             raise ValueError(f"{sc.path}: no method labelled {unknown}; methods: "
                              f"{[m.label for m in plan.methods]}")
-        plan = Plan(plan.protocols, tuple(m for m in plan.methods if m.label in methods),
-                    plan.bounds, plan.paper, plan.axis, plan.ci, plan.notes)
+        plan = replace(plan, methods=tuple(m for m in plan.methods if m.label in methods))
     axis_j = sc.axes.index(plan.axis)
+    truths = {} if truths is None else truths
     data = {}
     for i, run in enumerate(sc.runs):
-        say(f"simulate {run.name} ({i + 1}/{len(sc.runs)}, {run.duration:g} s)")
-        data[run.name] = simulate_run(sc.rig, run)
+        cached = truths.get(run.name)
+        say(f"simulate {run.name} ({i + 1}/{len(sc.runs)}, {run.duration:g} s)"
+            + (f", replicate {replicate}" if replicate else "")
+            + (" (table motion reused)" if cached is not None else ""))
+        data[run.name] = simulate_run(sc.rig, run, seed=run_seed(sc, plan, replicate, i),
+                                      truth=cached)
+        truths[run.name] = data[run.name].truth
 
     scored: list[Scored] = []
     fits: dict = {}
@@ -241,64 +257,111 @@ def run_scenario(path, progress=None, methods: list[str] | None = None) -> Scena
                 it.metrics["oracle"] = score(it.piece.oracle, it.piece, it.metrics["raw"])
             for ms in plan.methods:
                 say(f"{prot.name}: fit {ms.label} on {', '.join(s.describe() for s in fit_sel)}")
-                rec = {"fit_on": [s.describe() for s in fit_sel],
-                       "scored_on": [s.describe() for s in score_sel]}
-                model = None
-                with warnings.catch_warnings(record=True) as caught:
-                    warnings.simplefilter("always")
-                    try:
-                        model = fogcomp.make_method(ms.name, **ms.params)
-                        if model.random and "random_state" in model.get_params() and \
-                                model.get_params()["random_state"] is None:
-                            model.random_state = _method_seed(sc, prot, ms, fit_sel)
-                        t0 = time.perf_counter()
-                        model.fit(fit_piece.gyro(), fit_piece.truth)
-                        rec["fit_time_s"] = time.perf_counter() - t0
-                        rec["status"] = "ok"
-                    except Exception as exc:  # any failure of a method is reported, not fatal
-                        rec["status"] = "failed"
-                        rec["error"] = f"{type(exc).__name__}: {exc}"
-                        rec["traceback"] = traceback.format_exc(limit=3)
-                        model = None
-                    rec["warnings"] = sorted({f"{w.category.__name__}: {w.message}"
-                                              for w in caught})
-                if model is not None:
-                    rec["coefficients"] = _coef_record(model)
-                    rec["identifiability"] = _ident_record(model)
-                    for attr in ("level_", "n_iter_", "n_epochs_", "initial_loss_"):
-                        if hasattr(model, attr):
-                            v = getattr(model, attr)
-                            rec[attr.rstrip("_")] = v if isinstance(v, (int, str)) else float(v)
-                    if hasattr(model, "loss_curve_"):
-                        rec["loss_curve"] = [float(x) for x in np.asarray(model.loss_curve_)]
-                for it in items:
-                    if model is None:
-                        it.metrics[ms.label] = {"status": "failed", "error": rec["error"]}
-                        continue
-                    try:
-                        t0 = time.perf_counter()
-                        out = model.compensate(it.piece.gyro())
-                        dt = time.perf_counter() - t0
-                    except Exception as exc:
-                        it.metrics[ms.label] = {"status": "failed",
-                                                "error": f"{type(exc).__name__}: {exc}"}
-                        continue
-                    it.outputs[ms.label] = out
-                    m = score(out, it.piece, it.metrics["raw"])
-                    m["fit_time_s"] = rec["fit_time_s"]
-                    m["compensate_time_s"] = dt
-                    m["compensate_samples_per_s"] = out.size / dt if dt > 0 else None
-                    truth_coef = _true_coefficients(data[it.run], axis_j)
-                    if rec.get("coefficients") and truth_coef:
-                        se = (rec.get("identifiability") or {}).get("stderr_dph", {})
-                        ident = [n for n in TERM_NAMES if se.get(n, 0.0) is not None]
-                        m.update(_coef_errors(rec["coefficients"], truth_coef, ident))
-                    it.metrics[ms.label] = m
-                fits[prot.name][ms.label].append(rec)
+                seeded = fogcomp.get_method(ms.name).random and \
+                    ms.params.get("random_state") is None
+                for k in range(method_seeds if seeded else 1):
+                    seed = method_seed(sc, plan, prot, ms, fit_sel, replicate, k) if seeded \
+                        else None
+                    rec, model = _fit(ms, seed, fit_piece, fit_sel, score_sel)
+                    for it in items:
+                        m, out = _score_model(model, rec, it, data[it.run], axis_j)
+                        if k == 0:
+                            it.metrics[ms.label] = m
+                            if out is not None:
+                                it.outputs[ms.label] = out
+                        if seeded and method_seeds > 1:
+                            it.seed_metrics.setdefault(ms.label, []).append(m)
+                    if k == 0:
+                        fits[prot.name][ms.label].append(rec)
             scored.extend(items)
 
     metrics = _metrics_doc(sc, plan, data, scored, fits, time.monotonic() - t_start)
+    metrics["replicate"] = replicate
+    metrics["method_seeds"] = method_seeds
     return ScenarioResult(sc, plan, data, scored, fits, metrics, time.monotonic() - t_start)
+
+
+def _fit(ms, seed, fit_piece: Piece, fit_sel, score_sel):
+    """Make and fit one method; a failure is recorded (rec["status"]), never raised."""
+    rec = {"fit_on": [s.describe() for s in fit_sel],
+           "scored_on": [s.describe() for s in score_sel]}
+    if seed is not None:
+        rec["random_state"] = seed
+    model = None
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            model = fogcomp.make_method(ms.name, **ms.params)
+            if seed is not None:
+                model.random_state = seed
+            t0 = time.perf_counter()
+            model.fit(fit_piece.gyro(), fit_piece.truth)
+            rec["fit_time_s"] = time.perf_counter() - t0
+            rec["status"] = "ok"
+        except Exception as exc:  # any failure of a method is reported, not fatal
+            rec["status"] = "failed"
+            rec["error"] = f"{type(exc).__name__}: {exc}"
+            rec["traceback"] = traceback.format_exc(limit=3)
+            model = None
+        rec["warnings"] = sorted({f"{w.category.__name__}: {w.message}" for w in caught})
+    if model is not None:
+        rec["coefficients"] = _coef_record(model)
+        rec["identifiability"] = _ident_record(model)
+        for attr in ("level_", "n_iter_", "n_epochs_", "initial_loss_"):
+            if hasattr(model, attr):
+                v = getattr(model, attr)
+                rec[attr.rstrip("_")] = v if isinstance(v, (int, str)) else float(v)
+        if hasattr(model, "loss_curve_"):
+            rec["loss_curve"] = [float(x) for x in np.asarray(model.loss_curve_)]
+    return rec, model
+
+
+def _score_model(model, rec: dict, it: "Scored", rd: RunData, axis_j: int):
+    """Compensate one scored piece with a fitted model: (metrics, output or None)."""
+    if model is None:
+        return {"status": "failed", "error": rec["error"]}, None
+    try:
+        t0 = time.perf_counter()
+        out = model.compensate(it.piece.gyro())
+        dt = time.perf_counter() - t0
+    except Exception as exc:
+        return {"status": "failed", "error": f"{type(exc).__name__}: {exc}"}, None
+    if not np.all(np.isfinite(out)):
+        return {"status": "failed", "error": "compensated output is not finite"}, None
+    m = score(out, it.piece, it.metrics["raw"])
+    m["fit_time_s"] = rec["fit_time_s"]
+    m["compensate_time_s"] = dt
+    m["compensate_samples_per_s"] = out.size / dt if dt > 0 else None
+    truth_coef = _true_coefficients(rd, axis_j)
+    if rec.get("coefficients") and truth_coef:
+        se = (rec.get("identifiability") or {}).get("stderr_dph", {})
+        ident = [n for n in TERM_NAMES if se.get(n, 0.0) is not None]
+        m.update(_coef_errors(rec["coefficients"], truth_coef, ident))
+    return m, out
+
+
+def scenario_seed(sc, plan) -> int:
+    """The scenario's Monte Carlo seed: ``[montecarlo] seed``, else a hash of its name."""
+    import zlib
+
+    return plan.mc_seed if plan.mc_seed is not None else zlib.crc32(sc.name.encode())
+
+
+def run_seed(sc, plan, replicate: int, run_index: int) -> int:
+    """The seed of run ``run_index``'s random draws in ``replicate`` (0: the run's own seed)."""
+    if replicate == 0:
+        return sc.runs[run_index].seed
+    return replicate_seed(scenario_seed(sc, plan), replicate, run_index, "fog")
+
+
+def method_seed(sc, plan, prot, ms, fit_sel, replicate: int, k: int) -> int:
+    """A random method's seed for one fit: replicate 0, k 0 keeps the single run's seed."""
+    if replicate == 0 and k == 0:
+        return _method_seed(sc, prot, ms, fit_sel)
+    runs = [r.name for r in sc.runs]
+    first = runs.index(fit_sel[0].run) if fit_sel and fit_sel[0].run in runs else 0
+    stream = f"method:{prot.name}:{ms.label}:{'|'.join(s.run for s in fit_sel)}:{k}"
+    return replicate_seed(scenario_seed(sc, plan), replicate, first, stream)
 
 
 def _method_seed(sc, prot, ms, fit_sel) -> int:

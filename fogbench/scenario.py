@@ -30,7 +30,9 @@ __all__ = ["ScenarioError", "Scenario", "Run", "load_scenario", "load_presets", 
            "load_plan", "select_indices", "expand"]
 
 # Top-level tables of the compensation part (validated by load_plan below); others are refused.
-RUNNER_SECTIONS = ("compensation", "protocols", "methods", "bounds", "paper", "claims")
+RUNNER_SECTIONS = ("compensation", "protocols", "methods", "bounds", "paper", "claims",
+                   "montecarlo")
+MAX_REPLICATES = 10_000
 
 
 class ScenarioError(ValueError):
@@ -642,6 +644,9 @@ class Plan:
     ci: bool = False
     notes: tuple[str, ...] = field(default=())
     claims: tuple[Claim, ...] = field(default=())
+    replicates: int = 1            # [montecarlo] replicates: power-ons drawn anew per replicate
+    method_seeds: int = 1          # [montecarlo] method_seeds: random starts per fit
+    mc_seed: int | None = None     # [montecarlo] seed (default: a hash of the scenario name)
 
 
 def _segment_bounds(run: Run, fs: float) -> list[tuple[int, int]]:
@@ -841,9 +846,14 @@ def load_plan(sc: Scenario) -> Plan:
             raise t.err("min_pct", "a claim needs 'min_pct', 'max_pct' or both")
         t.done()
         claims.append(c)
+    mc = _Table(extra.get("montecarlo", "table", {}), "[montecarlo]", file)
+    replicates = mc.get("replicates", "int", 1, lo=1, hi=MAX_REPLICATES)
+    method_seeds = mc.get("method_seeds", "int", 1, lo=1, hi=1000)
+    mc_seed = mc.get("seed", "int", None, lo=0, hi=2**63 - 1)
+    mc.done()
     extra.done()
     return Plan(tuple(protocols), tuple(methods), tuple(bounds), tuple(paper), axis, ci, notes,
-                tuple(claims))
+                tuple(claims), replicates, method_seeds, mc_seed)
 
 
 def expand(prot: Protocol, sc: Scenario) -> list[tuple[list[Selection], list[Selection]]]:

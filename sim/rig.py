@@ -76,14 +76,24 @@ class RunData:
         return self.truth.rate[:, "xyz".index(self.axes[j])]
 
 
-def simulate_run(rig: Rig, run: Run, progress=None) -> RunData:
-    """Simulate one power-on. ``progress(fraction)`` is called as the table runs."""
-    truth = simulate_truth(run.motion, rig.fs, rig.table, tilt0=run.tilt0, progress=progress)
+def simulate_run(rig: Rig, run: Run, progress=None, seed: int | None = None,
+                 truth: Truth | None = None) -> RunData:
+    """Simulate one power-on. ``progress(fraction)`` is called as the table runs.
+
+    ``seed`` (default ``run.seed``) seeds every random draw of the power-on: the FOG's switch-on
+    draws and noise terms, and the temperature sensor's noise. The table's motion is
+    deterministic: ``truth``, a :class:`Truth` simulated before for the same ``rig`` and ``run``,
+    is reused as it is (a Monte Carlo replicate then costs only the random draws).
+    """
+    seed = run.seed if seed is None else seed
+    if truth is None:
+        truth = simulate_truth(run.motion, rig.fs, rig.table, tilt0=run.tilt0,
+                               progress=progress)
     program = run.thermal or ThermalProgram(start=rig.ambient_c, steps=())
     # the FOG's error model gets the true coil temperature and heat flux; the sensor's reading
     # (thermal.sensor, thermal.sensor_rate) is what a compensator may see
-    thermal = simulate_thermal(program, truth.t, rig.thermal, seed=run.seed)
+    thermal = simulate_thermal(program, truth.t, rig.thermal, seed=seed)
     fog = simulate_fog(rig.fog, rig.fs, truth.rate, truth.specific_force,
                        temp=thermal.coil, temp_rate=thermal.coil_rate, axes=rig.axes,
-                       seed=run.seed)
+                       seed=seed)
     return RunData(run=run, fs=rig.fs, truth=truth, thermal=thermal, fog=fog, axes=rig.axes)

@@ -65,6 +65,8 @@ sample_rate_hz = 50.0
 
 [fog]
 preset = "low_grade"
+arw_deg_rt_h = 0.8      # white noise dominant (MEMS-class), so the analytic std below holds
+gm_drift_dps = 0.0
 
 [[runs]]
 name = "fit"

@@ -194,7 +194,7 @@ def test_wavelet_soft_too_deep_level_warns_and_bad_input_raises():
     with pytest.warns(UserWarning, match="deeper than a record of 1000 samples"):
         WaveletSoftThreshold(level=12).fit(data)
     with pytest.raises(ValueError, match="threshold"):
-        WaveletSoftThreshold(threshold="sure").fit(data)
+        WaveletSoftThreshold(threshold="stein").fit(data)
     with pytest.raises(ValueError, match="wavelet"):
         WaveletSoftThreshold(wavelet="bior2.2").fit(data)
 

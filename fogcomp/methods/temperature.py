@@ -116,9 +116,12 @@ class PolyTemp(Compensator):
     def _design(data: GyroData) -> np.ndarray:
         return np.column_stack([np.ones(len(data)), data.temp, data.temp_rate])
 
-    def _fit(self, data, error):
+    def _validate(self) -> None:
         if not (_is_num(self.rcond) and self.rcond > 0):
             raise ValueError(f"rcond: must be a positive finite number, got {self.rcond!r}")
+
+    def _fit(self, data, error):
+        self._validate()
         self.coef_, self.identifiability_ = lstsq_identify(
             self._design(data), error, self.coef_names, rcond=float(self.rcond), label=self.name)
 
@@ -360,6 +363,17 @@ def train_lm(theta, x, t, hidden_size, max_epochs=1000, goal=1e-5):
     return theta, np.asarray(losses), stop
 
 
+def _forward_chunked(theta, x, H, chunk=1 << 15):
+    """:func:`net_forward` of one network, in the (H, n) layout and in chunks (long records)."""
+    xT = np.ascontiguousarray(x.T)
+    out = np.empty(x.shape[0])
+    W2, b2 = theta[2 * H + H:2 * H + 2 * H], theta[-1]
+    for s in range(0, x.shape[0], chunk):
+        h = _hidden_t(theta, xT[:, s:s + chunk], H)[0]
+        out[s:s + chunk] = W2 @ h + b2
+    return out
+
+
 class _MinMax:
     """MATLAB ``mapminmax``: map each column's training range linearly onto [-1, 1].
 
@@ -567,7 +581,7 @@ class Bp(Compensator):
             _warn(f"{self.name}: inputs reach {np.abs(x).max():.3g} half-ranges from the "
                   "centre of the training range (trained on [-1, 1]); extrapolating",
                   TrainingRangeWarning)
-        return net_forward(self.params_, x, self.hidden_size) * self.y_half_ + self.y_center_
+        return _forward_chunked(self.params_, x, self.hidden_size) * self.y_half_ + self.y_center_
 
     def _state(self):
         info = {"initial_loss_": self.initial_loss_, "n_epochs_": self.n_epochs_,

@@ -749,6 +749,7 @@ class Flnn(_FlnnBase):
 
     def _fit(self, data: GyroData, error: np.ndarray) -> None:
         self._validate()
+        dwell = self._dwells(data) if self.presentation == "dwell_means" else None
         F = flnn_features(data.g)
         prev = getattr(self, "coef_", None) if (self.warm_start and
                                                 getattr(self, "fitted_", False)) else None
@@ -764,7 +765,7 @@ class Flnn(_FlnnBase):
         else:
             w = rng.uniform(-1.0, 1.0, size=F.shape[1])
         if self.presentation == "dwell_means":
-            Fs, ys = _dwell_means(Fs, ys, self._dwells(data))
+            Fs, ys = _dwell_means(Fs, ys, dwell)
         sq = np.einsum("ij,ij->i", Fs, Fs)
         step = 1.0 / (1e-12 + sq) if self.normalized else np.ones_like(sq)
 

@@ -13,7 +13,10 @@ spread so that every g^2 term is identified), a chamber temperature sweeping -40
 error of 5 deg/h + g and g^2 terms + temperature terms + white noise of 1e-4 rad/s. The figures
 are the speed of the code on this machine, not of a method on a particular gyro.
 
-Run: ``python -m fogbench.bench_methods`` (or ``main(repeats)`` from Python).
+Run: ``OPENBLAS_NUM_THREADS=1 python -m fogbench.bench_methods`` (or ``main(repeats)`` from
+Python). On a shared two-core machine, numpy's multi-threaded BLAS on these small matrices
+made the network fits 3-6 times slower than one thread (bp at 50,000 samples: 13.6 s against
+2.9 s in the same hour); the variable must be set before numpy is imported.
 ``python -m fogbench.bench_methods --starts 20`` also runs :func:`compare_starts`: the ant colony
 against random search with the same number of loss evaluations and against one random start,
 over seeds, under both training functions.

@@ -6,9 +6,14 @@ import numpy as np
 import pytest
 
 from fogcomp import GyroData, load_model, make_method, save_model
-from fogcomp.methods.kalman import KalmanDenoiser, estimate_noise
-from fogcomp.methods.wavelet_soft import WaveletSoftThreshold, soft_denoise
-from fogcomp.units import DPS
+from fogcomp.methods.kalman import (
+    KalmanDenoiser,
+    corner_frequency_hz,
+    estimate_noise,
+    steady_state_gain,
+)
+from fogcomp.methods.wavelet_soft import WaveletSoftThreshold, soft_denoise, sure_threshold
+from fogcomp.units import DEG_RT_H, DPS
 
 FS = 100.0
 RATE = -60 * DPS
@@ -149,15 +154,16 @@ def test_kalman_bad_hyperparameters():
 
 # ---------------------------------------------------------------------------------------------
 # Soft-threshold wavelet
-def test_wavelet_soft_on_white_noise_matches_theory():
-    # Orthonormal db6 with periodization, level L = 5, n = 2^16. The finest details of white
+@pytest.mark.parametrize("level", [3, 4, 5, 6])
+def test_wavelet_soft_on_white_noise_matches_theory(level):
+    # Orthonormal db6 with periodization, level L = 3 .. 6, n = 2^16. The finest details of white
     # noise are N(0, sigma^2): MAD/0.6745 estimates sigma to about sqrt(1.36 / (n/2)) = 0.6 %,
     # so the universal threshold is sigma sqrt(2 ln n) within 3 %. It exceeds every detail
     # coefficient with probability -> 1 (a handful at most survive, shrunk to almost nothing),
     # so the output error is the level-L approximation of the noise: by Parseval its variance
-    # is sigma^2 (n / 2^L) / n = sigma^2 / 2^L, estimated from 2,048 coefficients (3 % scatter);
-    # tolerance 15 %. The constant goes entirely into the approximation.
-    sigma, n, level = 1e-3, 2**16, 5
+    # is sigma^2 (n / 2^L) / n = sigma^2 / 2^L, estimated from n / 2^L >= 1,024 coefficients
+    # (<= 4.4 % scatter); tolerance 15 %. The constant goes entirely into the approximation.
+    sigma, n = 1e-3, 2**16
     data = GyroData(rate=_white(7, n, sigma), fs=FS)
     res = soft_denoise(data.rate, "db6", level, "periodization")
     assert res.sigma == pytest.approx(sigma, rel=0.03)
@@ -194,7 +200,7 @@ def test_wavelet_soft_too_deep_level_warns_and_bad_input_raises():
     with pytest.warns(UserWarning, match="deeper than a record of 1000 samples"):
         WaveletSoftThreshold(level=12).fit(data)
     with pytest.raises(ValueError, match="threshold"):
-        WaveletSoftThreshold(threshold="sure").fit(data)
+        WaveletSoftThreshold(threshold="stein").fit(data)
     with pytest.raises(ValueError, match="wavelet"):
         WaveletSoftThreshold(wavelet="bior2.2").fit(data)
 
@@ -206,3 +212,113 @@ def test_wavelet_soft_state_round_trip(tmp_path):
     loaded = load_model(tmp_path / "w")
     np.testing.assert_array_equal(loaded.estimate_error(data), model.estimate_error(data))
     assert loaded.sigma_ == model.sigma_
+
+
+# ---------------------------------------------------------------------------------------------
+# Kalman: datasheet tuning, carried state, warm-up
+def test_kalman_datasheet_units_are_the_si_tuning():
+    data = GyroData(rate=_white(12, 500, 1e-3) + 1e-3 * np.sin(np.arange(500) / 30), fs=FS)
+    ds = KalmanDenoiser(arw_deg_rt_h=0.1, rate_walk_dps_rt_s=0.02).fit(data)
+    si = KalmanDenoiser(arw_rad_rt_s=0.1 * math.pi / 180 / 60,
+                        rrw_rad_s_rt_s=0.02 * math.pi / 180).fit(data)
+    np.testing.assert_allclose(ds.compensate(data), si.compensate(data), rtol=0, atol=1e-15)
+    assert ds.variogram_.size == 0                       # nothing estimated from the record
+
+
+def test_kalman_corner_frequency_is_the_analytic_low_pass():
+    """Datasheet tuning: ARW N and a rate walk K sized for the motion make the steady filter a
+    first-order low-pass with its -3 dB corner at K / (2 pi N) (Kalman-Bucy, continuous
+    limit). A noise-free sine at that frequency comes out at 1/sqrt(2) of its amplitude and
+    one decade above at about 1/10 (first-order roll-off); measured after the warm-up."""
+    arw = 0.5 * DEG_RT_H
+    fc = 0.5
+    k = 2 * math.pi * fc * arw
+    assert corner_frequency_hz(arw, k) == pytest.approx(fc)
+    model = KalmanDenoiser(arw_rad_rt_s=arw, rrw_rad_s_rt_s=k)
+    t = np.arange(20000) / FS
+    for f, want in ((fc, 1 / math.sqrt(2)), (10 * fc, 1 / math.sqrt(101))):
+        z = np.sin(2 * math.pi * f * t)
+        out = model.fit(GyroData(rate=z, fs=FS)).compensate(GyroData(rate=z, fs=FS))
+        skip = 2 * model.settling_samples()
+        ref_s, ref_c = np.sin(2 * math.pi * f * t[skip:]), np.cos(2 * math.pi * f * t[skip:])
+        amp = math.hypot(2 * np.mean(out[skip:] * ref_s), 2 * np.mean(out[skip:] * ref_c))
+        assert amp == pytest.approx(want, rel=0.04)
+
+
+def test_kalman_settling_samples_is_where_the_gain_settles():
+    """The filter's own posterior variance P_k gives its gain P_k / R (filterpy's run);
+    ``settling_samples`` is the first sample where it is within 5 % of the Riccati value."""
+    sigma = 1e-3
+    model, q, r = _kalman_for(sigma, 1e-3)
+    data = GyroData(rate=_white(13, 2000, sigma), fs=FS)
+    model.fit(data)
+    _, ps = model._run(data.rate, FS, None)
+    gain = ps[:, 0, 0] / r
+    k_ss = steady_state_gain(q, r)
+    first = int(np.argmax(np.abs(gain - k_ss) <= 0.05 * k_ss))
+    assert model.settling_samples() == first
+
+
+def test_kalman_carry_continues_the_fitting_record():
+    """``start="carry"``: a record that follows the fitting record is filtered as if the filter
+    had run through both without a restart (the twin: one filter over the joined record)."""
+    sigma = 1e-3
+    z = _white(14, 3000, sigma) + 2e-3 * np.sin(np.arange(3000) / 200)
+    first, second = GyroData(rate=z[:2000], fs=FS), GyroData(rate=z[2000:], fs=FS)
+    model, _, _ = _kalman_for(sigma, 1e-3)
+    model.start = "carry"
+    model.fit(first)
+    whole, _, _ = _kalman_for(sigma, 1e-3)
+    joined = whole.fit(first).compensate(GyroData(rate=z, fs=FS))
+    np.testing.assert_allclose(model.compensate(second), joined[2000:], rtol=0, atol=1e-15)
+    restart, _, _ = _kalman_for(sigma, 1e-3)
+    assert restart.fit(first).compensate(second)[0] == second.rate[0]   # restart: x_0 = z_0
+
+
+@pytest.mark.parametrize("kw, arg", [
+    ({"arw_rad_rt_s": float("nan")}, "arw_rad_rt_s"),
+    ({"arw_deg_rt_h": -0.1}, "arw_deg_rt_h"),
+    ({"arw_deg_rt_h": 0.1, "arw_rad_rt_s": 1e-5}, "arw_deg_rt_h"),
+    ({"rate_walk_dps_rt_s": "fast"}, "rate_walk_dps_rt_s"),
+    ({"smoother": "yes"}, "smoother"),
+    ({"start": "warm"}, "start"),
+])
+def test_kalman_validate_refuses_without_data(kw, arg):
+    with pytest.raises(ValueError, match=arg):
+        KalmanDenoiser(**kw)._validate()
+
+
+# ---------------------------------------------------------------------------------------------
+# Wavelet: SURE threshold
+def test_sure_threshold_is_near_the_oracle_threshold():
+    """Stein's unbiased risk estimate picks, from the data alone, a threshold whose true loss
+    ||soft(x, t) - mu||^2 is within 15 % of the best threshold's (the oracle, which knows mu),
+    for sparse and dense means alike (Donoho & Johnstone 1995)."""
+    rng = np.random.default_rng(15)
+    n = 4096
+    for frac, size in ((0.05, 4.0), (0.3, 2.0), (1.0, 0.5)):
+        mu = np.where(rng.random(n) < frac, size * rng.choice([-1, 1], n), 0.0)
+        x = mu + rng.normal(size=n)
+        ts = np.linspace(0, 4, 401)
+
+        def loss(t):
+            return np.mean((np.sign(x) * np.maximum(np.abs(x) - t, 0) - mu) ** 2)
+
+        best = min(loss(t) for t in ts)
+        assert loss(sure_threshold(x)) <= 1.15 * best, (frac, size)
+
+
+def test_wavelet_sure_keeps_more_than_universal_and_validates():
+    sigma, n = 1e-3, 2**14
+    data = GyroData(rate=_white(16, n, sigma) + 3e-3 * np.sin(np.arange(n) / 5.0), fs=FS)
+    uni = soft_denoise(data.rate, "db6", 6, "periodization", "universal")
+    sure = soft_denoise(data.rate, "db6", 6, "periodization", "sure")
+    assert sure.level_thresholds.shape == (6,)
+    assert np.all(sure.level_thresholds <= uni.threshold + 1e-15)
+    model = WaveletSoftThreshold(level=6, mode="periodization", threshold="sure").fit(data)
+    np.testing.assert_array_equal(model.compensate(data), sure.denoised)
+    for kw, arg in (({"level": "four"}, "level"), ({"wavelet": "db99"}, "wavelet"),
+                    ({"threshold": float("nan")}, "threshold"), ({"mode": "wrap"}, "mode"),
+                    ({"level": 2.0}, "level")):
+        with pytest.raises(ValueError, match=arg):
+            WaveletSoftThreshold(**kw)._validate()

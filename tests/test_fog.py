@@ -122,29 +122,78 @@ def test_g_coefficients_change_at_each_switch_on():
     assert abs(d.std(axis=0).mean() / 1e-6 - 1) < 0.15
 
 
+def _term(params, term, w, T, Td, axis="z", n_f=None):
+    """One error term for explicit per-sample inputs (rate w as (n, 3), T, Tdot)."""
+    n = w.shape[0]
+    f = np.tile([0.0, 0.0, 1.0], (n, 1))
+    out = simulate_fog(params, FS, w, f, np.asarray(T, float), np.asarray(Td, float),
+                       axes=(axis,), seed=0)
+    return out.terms[term][:, 0]
+
+
 def test_temperature_law():
-    w, f, T, Td = inputs(3000)
-    p = FogParams(temp_ref=20.0, temp_coeff=1e-6, temp_coeff2=2e-8, temp_rate_coeff=3e-4,
-                  temp_cross_coeff=5e-6)
-    out = simulate_fog(p, FS, w, f, T, Td, axes=("z",), seed=0)
-    dT = T - 20.0
-    law = 1e-6 * dT + 2e-8 * dT**2 + 3e-4 * Td + 5e-6 * dT * Td
-    np.testing.assert_allclose(out.terms["temperature"][:, 0], law, rtol=1e-12, atol=1e-22)
+    """Paper 002 eq. 1 read as a smooth bias b(T, Tdot), checked by its derivatives and special
+    cases rather than by the closed form: b(T_ref, 0) = 0; at Tdot = 0 the central first
+    difference at T_ref is the static slope c1 and every second difference is 2 c2 h^2 (a
+    parabola in T); at T = T_ref it is linear in Tdot with slope c3 (the Shupe coefficient);
+    the mixed difference b(T+h, Td+k) - b(T+h, Td) - b(T, Td+k) + b(T, Td) is c4 h k."""
+    c1, c2, c3, c4 = 1e-6, 2e-8, 3e-4, 5e-6
+    p = FogParams(temp_ref=20.0, temp_coeff=c1, temp_coeff2=c2, temp_rate_coeff=c3,
+                  temp_cross_coeff=c4)
+    h, k = 0.5, 0.002
+    T = 20.0 + h * np.arange(-40, 41)                 # uniform grid through T_ref
+    w = np.zeros((T.size, 3))
+    b0 = _term(p, "temperature", w, T, np.zeros(T.size))
+    assert b0[40] == 0.0                              # b(T_ref, 0) = 0
+    assert (b0[41] - b0[39]) / (2 * h) == pytest.approx(c1, rel=1e-9)
+    np.testing.assert_allclose(np.diff(b0, 2), 2 * c2 * h * h, rtol=1e-6)
+    Td = k * np.arange(-20, 21)
+    b1 = _term(p, "temperature", np.zeros((Td.size, 3)), np.full(Td.size, 20.0), Td)
+    np.testing.assert_allclose(np.diff(b1), c3 * k, rtol=1e-9)
+    rng = np.random.default_rng(0)
+    T0, Td0 = rng.uniform(-40, 60, 50), rng.uniform(-0.01, 0.01, 50)
+    z = np.zeros((50, 3))
+    mixed = (_term(p, "temperature", z, T0 + h, Td0 + k) - _term(p, "temperature", z, T0 + h, Td0)
+             - _term(p, "temperature", z, T0, Td0 + k) + _term(p, "temperature", z, T0, Td0))
+    np.testing.assert_allclose(mixed, c4 * h * k, rtol=1e-6)
 
 
 def test_scale_factor_misalignment_and_ramp():
-    w, f, T, Td = inputs(3000)
-    p = FogParams(scale_factor=1e-4, sf_nonlinearity=2e-5, full_scale=5.0, sf_temp_coeff=1e-6,
-                  temp_ref=20.0, misalignment=((0, 1e-3, 2e-3), (0, 0, 0), (0, 0, 0)),
-                  rate_ramp=1e-7)
-    out = simulate_fog(p, FS, w, f, T, Td, axes=("x",), seed=0)
-    wx = w[:, 0]
-    sf = (1e-4 + 1e-6 * (T - 20)) * wx + 2e-5 * wx * np.abs(wx) / 5.0
-    np.testing.assert_allclose(out.terms["scale_factor"][:, 0], sf, rtol=1e-12)
-    np.testing.assert_allclose(out.terms["misalignment"][:, 0], 1e-3 * w[:, 1] + 2e-3 * w[:, 2],
-                               rtol=1e-12)
-    t_mid = (np.arange(3000) + 0.5) / FS
-    np.testing.assert_allclose(out.terms["rate_ramp"][:, 0], 1e-7 * t_mid, rtol=1e-12)
+    """The scale-factor error stated by what it must do, not by its formula: odd in the rate;
+    at T_ref and rates far below full scale its slope is k0 (the nonlinearity, k_nl w|w|/w_fs,
+    is second order); the nonlinearity is k_nl * w_fs at full scale by definition; the
+    temperature coefficient is the numerical derivative d(error)/dT / w. Misalignment is the
+    response to the other axes' rates (a finite difference in each). The rate ramp has zero
+    second differences in time and slope rate_ramp."""
+    k0, knl, kT, wfs = 1e-4, 2e-5, 1e-6, 5.0
+    p = FogParams(scale_factor=k0, sf_nonlinearity=knl, full_scale=wfs, sf_temp_coeff=kT,
+                  temp_ref=20.0)
+    rates = np.array([-wfs, -1.0, -1e-3, 1e-3, 1.0, wfs])
+    w = np.zeros((rates.size, 3))
+    w[:, 0] = rates
+    sf = _term(p, "scale_factor", w, np.full(rates.size, 20.0), np.zeros(rates.size), "x")
+    np.testing.assert_allclose(sf, -sf[::-1], rtol=1e-12)            # odd
+    # slope at 1e-3 rad/s: k0 (1 + k_nl 1e-3 / (w_fs k0)), within 4e-5 of k0
+    assert sf[3] / 1e-3 == pytest.approx(k0, rel=1e-4)
+    assert sf[5] - k0 * wfs == pytest.approx(knl * wfs, rel=1e-9)   # k_nl at full scale
+    dT = 0.25
+    up = _term(p, "scale_factor", w, np.full(rates.size, 20.0 + dT), np.zeros(rates.size), "x")
+    dn = _term(p, "scale_factor", w, np.full(rates.size, 20.0 - dT), np.zeros(rates.size), "x")
+    np.testing.assert_allclose((up - dn) / (2 * dT) / rates, kT, rtol=1e-6)
+    m = FogParams(misalignment=((0, 1e-3, 2e-3), (0, 0, 0), (0, 0, 0)))
+    base = np.zeros((3, 3))
+    base[:, 0] = 0.3
+    T3, Z3 = np.full(3, 20.0), np.zeros(3)
+    for axis_j, want in ((1, 1e-3), (2, 2e-3)):
+        moved = base.copy()
+        moved[:, axis_j] += 0.7
+        d = _term(m, "misalignment", moved, T3, Z3, "x") - _term(m, "misalignment", base, T3, Z3,
+                                                                  "x")
+        np.testing.assert_allclose(d / 0.7, want, rtol=1e-9)
+    r = FogParams(rate_ramp=1e-7)
+    ramp = _term(r, "rate_ramp", np.zeros((3000, 3)), np.full(3000, 20.0), np.zeros(3000), "x")
+    np.testing.assert_allclose(np.diff(ramp) * FS, 1e-7, rtol=1e-6)
+    assert np.max(np.abs(np.diff(ramp, 2))) < 1e-12 * 1e-7 * 3000 / FS
 
 
 def test_quantisation_steps_are_whole_quanta_and_lose_no_angle():

@@ -143,3 +143,30 @@ def test_bad_hyperparameters_name_the_argument(kw, arg):
     data, w = record(n=50)
     with pytest.raises(ValueError, match=arg):
         fogcomp.make_method("model_lstsq", **kw).fit(data, w)
+
+
+def test_estimate_term_by_term_matches_the_design_matrix():
+    """The compensation accumulates term by term (no (n, p) design); its slow twin builds the
+    design with the fitting code's own column builder and inverts raw = (1 + k) w + e."""
+    data, w = record(n=500, temp2=True)
+    terms = ("bias", "scale_factor", "g", "g2", "temp", "temp_rate", "temp2")
+    m = fogcomp.make_method("model_lstsq", t0_c=T0, terms=terms).fit(data, w)
+    other, _ = record(n=300, seed=3, temp2=True)
+    X = m._columns(other, other.rate, terms, m.t0_c_)
+    k = m.coef_[1]
+    want = (k * other.rate + X @ m.coef_ - k * X[:, 1]) / (1 + k)
+    np.testing.assert_allclose(m.estimate_error(other), want, rtol=1e-12, atol=1e-18)
+    g_only = fogcomp.make_method("model_lstsq", terms=("g",)).fit(data, w)
+    np.testing.assert_allclose(g_only.estimate_error(other), other.g @ g_only.coef_,
+                               rtol=1e-12, atol=1e-18)
+
+
+@pytest.mark.parametrize("kw, arg", [
+    ({"terms": ("bias", 3)}, "terms"),
+    ({"t0_c": True}, "t0_c"),
+    ({"t0_c": float("inf")}, "t0_c"),
+    ({"rcond": "small"}, "rcond"),
+])
+def test_validate_refuses_without_data(kw, arg):
+    with pytest.raises(ValueError, match=arg):
+        fogcomp.make_method("model_lstsq", **kw)._validate()

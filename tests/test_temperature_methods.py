@@ -139,41 +139,107 @@ def test_aco_update_evaporates_deposits_and_clips():
     assert out[0, 0] == 3.0 and out[1, 0] == pytest.approx(0.4)
 
 
-def _random_search_best(model, data, budget, seed):
-    """Best of ``budget`` networks drawn uniformly from the ACO's own candidate grid."""
-    x = (np.column_stack([data.temp, data.temp_rate]) - model.x_center_) / model.x_half_
-    t = (data.rate - model.y_center_) / model.y_half_
-    vals = np.linspace(-1, 1, model.n_candidates)
-    rng = np.random.default_rng(seed)
-    best = np.inf
-    for _ in range(budget // 50):
-        th = vals[rng.integers(0, model.n_candidates, (50, n_params(model.hidden_size)))]
-        best = min(best, float(np.min(np.mean((net_forward(th, x, 9) - t) ** 2, axis=1))))
-    return best
-
-
-def test_aco_start_beats_random_start_and_random_search():
-    """Paper's claim (ACO gives BP a better start), measured over 8 seeds; and the pheromone
-    matters: with the same 500 evaluations, ACO beats a uniform random search of its grid."""
+def test_aco_start_against_random_start_and_random_search():
+    """Paper's claim (ACO gives BP a better start), measured over 20 seeds against the fair
+    control: random search with the same 500 loss evaluations (``search="random"``). Measured:
+    ACO start MSE median 0.097 (0.066-0.134), random search 0.125 (0.094-0.140), ACO lower in
+    18/20 seeds; one random start 1.57 (0.26-3.8). Stated: ACO lower than random search in at
+    least 14 of 20 and lower than one random start in every seed."""
     data, ref = scatter_record(400, seed=1)
     aco, rnd, rs = [], [], []
-    for seed in range(8):
+    for seed in range(20):
         a = fogcomp.make_method("aco_bp", random_state=seed, max_epochs=0).fit(data, ref)
+        r = fogcomp.make_method("aco_bp", random_state=seed, max_epochs=0,
+                                search="random").fit(data, ref)
         b = fogcomp.make_method("bp", random_state=seed, max_epochs=0).fit(data, ref)
         aco.append(a.initial_loss_)
+        rs.append(r.initial_loss_)
         rnd.append(b.initial_loss_)
-        rs.append(_random_search_best(a, data, a.n_ants * a.aco_iter, seed=100 + seed))
         curve = a.aco_best_loss_curve_
         assert curve.shape == (a.aco_iter,) and np.all(np.diff(curve) <= 0)
         assert curve[-1] == pytest.approx(a.initial_loss_, rel=1e-12)
     aco, rnd, rs = map(np.array, (aco, rnd, rs))
-    print(f"\nnormalised MSE at the BP start over 8 seeds: ACO mean {aco.mean():.4f} "
-          f"(range {aco.min():.4f}-{aco.max():.4f}), random start mean {rnd.mean():.4f} "
-          f"(range {rnd.min():.4f}-{rnd.max():.4f}), random search (500 draws) mean "
-          f"{rs.mean():.4f}; ACO better than random search in {np.sum(aco < rs)}/8")
+    print(f"\nnormalised MSE at the BP start over 20 seeds: ACO median {np.median(aco):.4f} "
+          f"(range {aco.min():.4f}-{aco.max():.4f}), random search (500 draws) median "
+          f"{np.median(rs):.4f} (range {rs.min():.4f}-{rs.max():.4f}), one random start median "
+          f"{np.median(rnd):.4f}; ACO below random search in {np.sum(aco < rs)}/20")
     assert np.all(aco < rnd)
-    assert aco.mean() < 0.25 * rnd.mean()
-    assert aco.mean() < rs.mean() and np.sum(aco < rs) >= 5
+    assert np.sum(aco < rs) >= 14
+
+
+def test_random_search_is_the_best_of_its_budget():
+    """``search="random"``: n_ants * aco_iter networks uniform in (-1, 1), the best one starts
+    BP; reproduced here by drawing the same numbers and scoring them with net_forward."""
+    data, ref = scatter_record(200, seed=3)
+    m = fogcomp.make_method("aco_bp", search="random", n_ants=4, aco_iter=6, max_epochs=0,
+                            random_state=17).fit(data, ref)
+    rng = np.random.default_rng(17)
+    x = (np.column_stack([data.temp, data.temp_rate]) - m.x_center_) / m.x_half_
+    t = (data.rate - m.y_center_) / m.y_half_
+    draws = np.concatenate([rng.uniform(-1, 1, (4, 37)) for _ in range(6)])
+    losses = np.mean((net_forward(draws, x, 9) - t) ** 2, axis=1)
+    assert m.initial_loss_ == pytest.approx(losses.min(), rel=1e-10)
+    np.testing.assert_array_equal(m.aco_params_, draws[np.argmin(losses)])
+    np.testing.assert_allclose(m.aco_best_loss_curve_,
+                               np.minimum.accumulate(losses.reshape(6, 4).min(axis=1)),
+                               rtol=1e-10)
+
+
+# ---------------------------------------------------------------------------------------------
+# Levenberg-Marquardt
+def test_lm_reaches_the_minimum_scipy_lm_reaches():
+    """trainlm-like LM against MINPACK's LM (scipy.optimize.least_squares(method="lm")) from
+    the same start on the same noisy residuals: both end at a minimum of the same depth
+    (within 10 %; the noise floor is 0.0025), LM here in at most 1,000 epochs."""
+    from scipy.optimize import least_squares
+
+    from fogcomp.methods.temperature import train_lm
+
+    data, _ = scatter_record(150, seed=4)
+    x = np.column_stack([data.temp, data.temp_rate])
+    x = 2 * (x - x.min(0)) / (x.max(0) - x.min(0)) - 1
+    t = data.rate
+    t = 2 * (t - t.min()) / (t.max() - t.min()) - 1
+    t = t + 0.05 * np.random.default_rng(5).normal(size=t.size)   # a minimum of non-zero depth
+    theta0 = np.random.default_rng(2).uniform(-1, 1, 37)
+    theta, losses, stop = train_lm(theta0, x, t, 9, max_epochs=1000, goal=0.0)
+    ref = least_squares(lambda th: net_forward(th, x, 9) - t, theta0, method="lm",
+                        max_nfev=2000, xtol=1e-12, ftol=1e-12, gtol=1e-12)
+    ref_mse = float(np.mean(ref.fun ** 2))
+    assert losses[-1] < 0.01 * losses[0]
+    assert losses[-1] == pytest.approx(ref_mse, rel=0.1)
+    assert np.all(np.diff(losses) < 0)                  # every accepted step lowers the MSE
+
+
+def test_lm_fits_a_network_it_can_represent_to_the_goal():
+    """A target made by a 2-9-1 network itself: LM from a nearby start reaches the goal 1e-8
+    in a few epochs, 1,000 epochs of gradient descent from the same start do not."""
+    from fogcomp.methods.temperature import train_lm
+
+    rng = np.random.default_rng(8)
+    teacher = rng.uniform(-1, 1, 37)
+    x = rng.uniform(-1, 1, (400, 2))
+    t = net_forward(teacher, x, 9)
+    start = teacher + 0.05 * rng.normal(size=37)
+    theta, losses, stop = train_lm(start, x, t, 9, max_epochs=1000, goal=1e-8)
+    assert stop == "goal" and losses[-1] <= 1e-8 and len(losses) < 50
+    th = start.copy()
+    for _ in range(1000):
+        th = th - 0.1 * net_loss_grad(th, x, t, 9)[1]
+    assert net_loss_grad(th, x, t, 9)[0] > 1e-8
+
+
+@pytest.mark.parametrize("name", ["bp", "aco_bp"])
+def test_training_lm_on_the_method(name):
+    """``training="lm"`` on the smooth law: the held-out RMSE falls from ~10 % of the target's
+    std (gradient descent, 1,000 epochs) to under 2 % (measured 0.4-0.8 % over 20 seeds), and
+    the fit stops at the goal."""
+    train, rt = scatter_record(400, seed=1)
+    test, _ = scatter_record(400, seed=2)
+    m = fogcomp.make_method(name, training="lm", random_state=0).fit(train, rt)
+    rmse = np.sqrt(np.mean((m.estimate_error(test) - test.rate) ** 2))
+    assert rmse / np.std(test.rate) < 0.02
+    assert m.stop_reason_ == "goal" and m.loss_curve_[-1] <= 1e-5
 
 
 # ---------------------------------------------------------------------------------------------
@@ -269,11 +335,22 @@ def test_huge_learning_rate_raises_divergence(name):
     ("aco_bp", {"n_ants": 0}, "n_ants"),
     ("aco_bp", {"n_candidates": 1}, "n_candidates"),
     ("aco_bp", {"p_best": 1.0}, "p_best"),
+    ("bp", {"training": "trainlm"}, "training"),
+    ("bp", {"random_state": -3}, "random_state"),
+    ("bp", {"goal": float("nan")}, "goal"),
+    ("bp", {"init_scale": "1"}, "init_scale"),
+    ("aco_bp", {"search": "ants"}, "search"),
+    ("aco_bp", {"aco_alpha": True}, "aco_alpha"),
+    ("poly_temp", {"rcond": -1.0}, "rcond"),
 ])
 def test_bad_hyperparameters_name_the_argument(name, kw, arg):
     train, rt = scatter_record(20, seed=1)
+    if fogcomp.get_method(name).random:
+        kw = {"random_state": 0, **kw}
     with pytest.raises(ValueError, match=arg):
-        fogcomp.make_method(name, random_state=0, **kw).fit(train, rt)
+        fogcomp.make_method(name, **kw).fit(train, rt)
+    with pytest.raises(ValueError, match=arg):                 # and without data
+        fogcomp.make_method(name, **kw)._validate()
 
 
 def test_constant_temperature_rate_warns_for_network():

@@ -46,6 +46,7 @@ __all__ = [
     "Identifiability",
     "lstsq_identify",
     "flnn_features",
+    "find_dwells",
     "Flnn",
     "FlnnLstsq",
 ]
@@ -449,10 +450,8 @@ class _FlnnBase(Compensator):
         return flnn_features(data.g) @ self.coef_
 
     def _identify(self, F: np.ndarray, error: np.ndarray):
-        rcond = self.rcond
-        if not (isinstance(rcond, (int, float, np.floating)) and np.isfinite(rcond) and rcond > 0):
-            raise ValueError(f"rcond: must be a positive finite number, got {rcond!r}")
-        return lstsq_identify(F, error, _COEF_NAMES, rcond=float(rcond), label=self.name)
+        rcond = _check_rcond(self.rcond)
+        return lstsq_identify(F, error, _COEF_NAMES, rcond=rcond, label=self.name)
 
 
 @register
@@ -488,7 +487,11 @@ class FlnnLstsq(_FlnnBase):
     def __init__(self, rcond: float = DEFAULT_RCOND):
         self.rcond = rcond
 
+    def _validate(self) -> None:
+        _check_rcond(self.rcond)
+
     def _fit(self, data: GyroData, error: np.ndarray) -> None:
+        self._validate()
         F = flnn_features(data.g)
         self.coef_, self.identifiability_ = self._identify(F, error)
 
@@ -548,6 +551,64 @@ def _lms_pass(w: np.ndarray, F: np.ndarray, y: np.ndarray, mu: np.ndarray,
     return w
 
 
+def find_dwells(g: np.ndarray, tol_g: float) -> np.ndarray:
+    """Dwell index of every sample: a new dwell starts where some component of g changes by
+    more than ``tol_g`` from the previous sample.
+
+    Parameters
+    ----------
+    g : ndarray, shape (n, 3)
+        Specific force, g.
+    tol_g : float
+        Largest sample-to-sample change within one dwell, g.
+
+    Returns
+    -------
+    ndarray of int, shape (n,)
+        0, 0, ..., 1, 1, ...: consecutive integers, one per dwell, in recorded order.
+    """
+    g = np.asarray(g, dtype=float)
+    jump = np.zeros(g.shape[0], dtype=int)
+    if g.shape[0] > 1:
+        jump[1:] = np.max(np.abs(np.diff(g, axis=0)), axis=1) > tol_g
+    return np.cumsum(jump)
+
+
+#: Sample presentations of :class:`Flnn` (see its docstring).
+PRESENTATIONS = ("recorded", "shuffled", "dwell_means")
+
+
+def _dwell_means(F: np.ndarray, y: np.ndarray, dwell: np.ndarray):
+    """Mean of the rows of ``F`` and of ``y`` over each dwell (``dwell``: consecutive ids)."""
+    m = int(dwell[-1]) + 1
+    cnt = np.bincount(dwell, minlength=m).astype(float)
+    Fm = np.stack([np.bincount(dwell, weights=F[:, j], minlength=m) for j in range(F.shape[1])],
+                  axis=1) / cnt[:, None]
+    ym = np.bincount(dwell, weights=y, minlength=m) / cnt
+    return Fm, ym
+
+
+def _real(v) -> bool:
+    return (isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)
+            and bool(np.isfinite(v)))
+
+
+def _check_rcond(rcond) -> float:
+    if not (_real(rcond) and rcond > 0):
+        raise ValueError(f"rcond: must be a positive finite number, got {rcond!r}")
+    return float(rcond)
+
+
+def _check_random_state(rs) -> None:
+    """None (refused at fit by Compensator._rng), a non-negative integer or a Generator."""
+    if rs is None or isinstance(rs, np.random.Generator):
+        return
+    if isinstance(rs, (int, np.integer)) and not isinstance(rs, bool) and rs >= 0:
+        return
+    raise ValueError(f"random_state: expected a non-negative integer seed or a "
+                     f"numpy.random.Generator, got {rs!r}")
+
+
 @register
 class Flnn(_FlnnBase):
     """Functional-link neural network trained by (normalised) LMS, as in the paper.
@@ -583,6 +644,19 @@ class Flnn(_FlnnBase):
     (memory of about ``p / alpha_end`` = 25 samples). ``identifiability_.stderr`` is that of the
     least-squares estimate on the same data, a lower bound for the LMS weights.
 
+    Presentation (``presentation``), three readings of "samples presented in sequence, one
+    pass = one iteration" (paper section 4):
+
+    * ``"recorded"`` (default, the literal reading): every sample, in recorded order, each pass.
+      With a 10 Hz record the final weights mostly fit the last ~25 samples presented.
+    * ``"shuffled"``: every sample, in a new random order each pass (from ``random_state``).
+    * ``"dwell_means"``: one sample per dwell (static position): the mean of the functional-
+      link terms and of the error over the dwell, dwells in recorded order. Dwells are the
+      runs of samples whose g changes by no more than ``dwell_tol_g`` from one sample to the
+      next (:func:`find_dwells`), or, when ``data.meta["dwell_id"]`` holds an integer array
+      of shape (n,), the runs of equal ids there. The paper's Table 1 comes from positions,
+      one value each; fed means, LMS converges to the least-squares fit of the means.
+
     Parameters
     ----------
     n_iter : int, default 100
@@ -600,15 +674,23 @@ class Flnn(_FlnnBase):
         (a re-calibration that begins from the last switch-on's values).
     rcond : float, default 1e-4
         Relative singular-value threshold for the identifiability analysis.
+    presentation : {"recorded", "shuffled", "dwell_means"}, default "recorded"
+        What each pass presents (see above).
+    dwell_tol_g : float, default 0.01
+        Largest sample-to-sample change of any g component within one dwell, g (used by
+        ``presentation="dwell_means"`` when the data carry no ``meta["dwell_id"]``).
     random_state : int, numpy Generator or None
-        Seed for the initial weights (required).
+        Seed for the initial weights and the shuffling (required).
 
     Attributes
     ----------
     coef_ : ndarray, shape (10,)
         d0 (rad/s), d1-d3 (rad/s/g), d4-d9 (rad/s/g^2).
     loss_curve_ : ndarray, shape (n_iter_ + 1,)
-        MSE over all samples (normalised units) with the initial weights and after each pass.
+        MSE over the presented samples (normalised units) with the initial weights and after
+        each pass.
+    n_presented_ : int
+        Samples presented per pass (the number of dwells for ``"dwell_means"``).
     n_iter_ : int
         Number of passes run.
     identifiability_ : Identifiability
@@ -626,7 +708,8 @@ class Flnn(_FlnnBase):
 
     def __init__(self, n_iter: int = 100, alpha_start: float = 0.95, alpha_end: float = 0.4,
                  normalized: bool = True, tol: float = 1e-6, min_norm: bool = True,
-                 warm_start: bool = False, rcond: float = DEFAULT_RCOND, random_state=None):
+                 warm_start: bool = False, rcond: float = DEFAULT_RCOND,
+                 presentation: str = "recorded", dwell_tol_g: float = 0.01, random_state=None):
         self.n_iter = n_iter
         self.alpha_start = alpha_start
         self.alpha_end = alpha_end
@@ -635,6 +718,8 @@ class Flnn(_FlnnBase):
         self.min_norm = min_norm
         self.warm_start = warm_start
         self.rcond = rcond
+        self.presentation = presentation
+        self.dwell_tol_g = dwell_tol_g
         self.random_state = random_state
 
     def _validate(self) -> None:
@@ -643,16 +728,28 @@ class Flnn(_FlnnBase):
             raise ValueError(f"n_iter: must be an integer >= 1, got {self.n_iter!r}")
         for nm in ("alpha_start", "alpha_end"):
             a = getattr(self, nm)
-            if not (isinstance(a, (int, float, np.floating)) and np.isfinite(a) and a > 0):
+            if not (_real(a) and a > 0):
                 raise ValueError(f"{nm}: must be a positive finite number, got {a!r}")
             if self.normalized and a >= 2:
                 raise ValueError(f"{nm}: normalised LMS is stable only for 0 < alpha < 2, "
                                  f"got {a!r}")
-        if not (isinstance(self.tol, (int, float, np.floating)) and self.tol >= 0):
-            raise ValueError(f"tol: must be a number >= 0, got {self.tol!r}")
+        if not (_real(self.tol) and self.tol >= 0):
+            raise ValueError(f"tol: must be a finite number >= 0, got {self.tol!r}")
+        for nm in ("normalized", "min_norm", "warm_start"):
+            if not isinstance(getattr(self, nm), (bool, np.bool_)):
+                raise ValueError(f"{nm}: expected True or False, got {getattr(self, nm)!r}")
+        _check_rcond(self.rcond)
+        if not (isinstance(self.presentation, str) and self.presentation in PRESENTATIONS):
+            raise ValueError(f"presentation: expected one of {list(PRESENTATIONS)}, got "
+                             f"{self.presentation!r}")
+        if not (_real(self.dwell_tol_g) and self.dwell_tol_g >= 0):
+            raise ValueError(f"dwell_tol_g: must be a finite number >= 0 (g), got "
+                             f"{self.dwell_tol_g!r}")
+        _check_random_state(self.random_state)
 
     def _fit(self, data: GyroData, error: np.ndarray) -> None:
         self._validate()
+        dwell = self._dwells(data) if self.presentation == "dwell_means" else None
         F = flnn_features(data.g)
         prev = getattr(self, "coef_", None) if (self.warm_start and
                                                 getattr(self, "fitted_", False)) else None
@@ -662,10 +759,13 @@ class Flnn(_FlnnBase):
         y_scale = float(np.sqrt(np.mean(error * error))) or 1.0
         Fs = F / s
         ys = error / y_scale
+        rng = self._rng()
         if prev is not None:
             w = prev * s / y_scale
         else:
-            w = self._rng().uniform(-1.0, 1.0, size=F.shape[1])
+            w = rng.uniform(-1.0, 1.0, size=F.shape[1])
+        if self.presentation == "dwell_means":
+            Fs, ys = _dwell_means(Fs, ys, dwell)
         sq = np.einsum("ij,ij->i", Fs, Fs)
         step = 1.0 / (1e-12 + sq) if self.normalized else np.ones_like(sq)
 
@@ -680,7 +780,11 @@ class Flnn(_FlnnBase):
             np.array([float(self.alpha_start)])
         for it in range(n_iter):
             with np.errstate(all="ignore"):
-                w = _lms_pass(w, Fs, ys, alphas[it] * step)
+                if self.presentation == "shuffled":
+                    order = rng.permutation(Fs.shape[0])
+                    w = _lms_pass(w, Fs[order], ys[order], alphas[it] * step[order])
+                else:
+                    w = _lms_pass(w, Fs, ys, alphas[it] * step)
                 loss = mse(w)
             if not (np.all(np.isfinite(w)) and np.isfinite(loss)) or loss > _EXPLODE * max(l0, 1.0):
                 raise DivergenceError(
@@ -697,14 +801,29 @@ class Flnn(_FlnnBase):
         self.coef_ = w * y_scale / s
         self.loss_curve_ = np.asarray(losses)
         self.n_iter_ = len(losses) - 1
+        self.n_presented_ = int(Fs.shape[0])
         self.identifiability_ = ident
 
+    def _dwells(self, data: GyroData) -> np.ndarray:
+        ids = data.meta.get("dwell_id") if isinstance(data.meta, dict) else None
+        if ids is None:
+            return find_dwells(data.g, float(self.dwell_tol_g))
+        ids = np.asarray(ids)
+        if ids.shape != (len(data),) or not np.issubdtype(ids.dtype, np.integer):
+            raise ValueError(f"meta['dwell_id']: expected an integer array of shape "
+                             f"({len(data)},), got dtype {ids.dtype} shape {ids.shape}")
+        run = np.zeros(len(data), dtype=int)
+        run[1:] = ids[1:] != ids[:-1]
+        return np.cumsum(run)
+
     def _state(self):
-        return _state_with_ident(self.identifiability_, {"n_iter_": self.n_iter_},
+        return _state_with_ident(self.identifiability_, {"n_iter_": self.n_iter_,
+                                                         "n_presented_": self.n_presented_},
                                  {"coef": self.coef_, "loss_curve": self.loss_curve_})
 
     def _restore(self, info, arrays):
         self.coef_ = np.asarray(arrays["coef"], dtype=float)
         self.loss_curve_ = np.asarray(arrays["loss_curve"], dtype=float)
         self.n_iter_ = int(info["n_iter_"])
+        self.n_presented_ = int(info["n_presented_"])
         self.identifiability_ = _restore_ident(info, arrays)

@@ -36,8 +36,64 @@ import numpy as np
 from filterpy.kalman import KalmanFilter
 
 from ..base import Compensator, GyroData, register
+from ..units import DEG_RT_H, DPS
 
-__all__ = ["KalmanDenoiser", "variogram", "estimate_noise"]
+__all__ = ["KalmanDenoiser", "variogram", "estimate_noise", "steady_state_gain",
+           "corner_frequency_hz", "STARTS"]
+
+#: How each record compensated starts the filter (see KalmanDenoiser).
+STARTS = ("restart", "carry")
+
+
+def steady_state_gain(q: float, r: float) -> float:
+    """Steady-state Kalman gain of the scalar random-walk filter, from the Riccati equation.
+
+    With the prior variance P- = P + q and K = P- / (P- + r), P = (1 - K) P-, the fixed point
+    solves P-^2 - q P- - q r = 0: ``P- = (q + sqrt(q^2 + 4 q r)) / 2``.
+
+    Parameters
+    ----------
+    q, r : float
+        Per-sample process and measurement noise variances, (rad/s)^2.
+
+    Returns
+    -------
+    float
+        K in [0, 1] (0 when q = 0: the running mean; 1 when r = 0).
+    """
+    if r == 0:
+        return 1.0
+    p_prior = (q + math.sqrt(q * q + 4.0 * q * r)) / 2.0
+    return p_prior / (p_prior + r)
+
+
+def corner_frequency_hz(arw_rad_rt_s: float, rrw_rad_s_rt_s: float) -> float:
+    """-3 dB corner of the steady-state filter in the continuous limit: ``K / (2 pi N)``.
+
+    The Kalman-Bucy filter of x' = w (PSD K^2), z = x + v (PSD N^2) has the steady-state gain
+    K / N (1/s), i.e. it is the first-order low-pass 1 / (1 + s N / K). Valid when the corner
+    is far below the sample rate.
+
+    Parameters
+    ----------
+    arw_rad_rt_s : float
+        N, rad/sqrt(s).
+    rrw_rad_s_rt_s : float
+        K, rad/s/sqrt(s).
+
+    Returns
+    -------
+    float
+        Corner frequency, Hz (inf when N = 0).
+
+    References
+    ----------
+    .. [1] A. Gelb (ed.), *Applied Optimal Estimation*, MIT Press, 1974, ch. 4 (the
+       steady-state Kalman-Bucy filter of a random walk observed in white noise).
+    """
+    if arw_rad_rt_s == 0:
+        return math.inf
+    return rrw_rad_s_rt_s / (2.0 * math.pi * arw_rad_rt_s)
 
 
 def variogram(z: np.ndarray, m_max: int) -> np.ndarray:
@@ -123,6 +179,15 @@ def _check_optional_positive(name, value):
     return float(value)
 
 
+def _one_of(si_name, si, ds_name, ds, factor):
+    """The SI value of a quantity given either in SI or in datasheet units (not both)."""
+    si = _check_optional_positive(si_name, si)
+    ds = _check_optional_positive(ds_name, ds)
+    if si is not None and ds is not None:
+        raise ValueError(f"{ds_name}: give either {si_name} or {ds_name}, not both")
+    return si if ds is None else ds * factor
+
+
 @register
 class KalmanDenoiser(Compensator):
     """Random-walk-rate Kalman filter; the estimated error is what the filter removes.
@@ -139,6 +204,24 @@ class KalmanDenoiser(Compensator):
     smoother : bool, default False
         Also run the Rauch-Tung-Striebel smoother (``kf.rts_smoother``) backwards over each
         record (non-causal; uses the whole record for every sample).
+    arw_deg_rt_h : float or None, default None
+        The same ARW in datasheet units, deg/sqrt(h) (give this or ``arw_rad_rt_s``, not
+        both): the datasheet tuning of R.
+    rate_walk_dps_rt_s : float or None, default None
+        The same K in deg/s/sqrt(s) (give this or ``rrw_rad_s_rt_s``, not both): Q sized for
+        the motion the user expects, not for the gyro's own rate random walk. The true rate
+        is then allowed to change by about K sqrt(T) over T seconds, and the steady-state
+        filter is a first-order low-pass with its -3 dB corner at ``K / (2 pi N)`` Hz
+        (:func:`corner_frequency_hz`; e.g. ARW 0.1 deg/sqrt(h) and K = 1 deg/s/sqrt(s) give
+        about 95 Hz, i.e. little filtering; K = 1e-3 gives 0.095 Hz). Choose K = 2 pi f N for
+        a wanted bandwidth f.
+    start : {"restart", "carry"}, default "restart"
+        ``"restart"``: every record compensated starts afresh from its own first sample
+        (x_0 = z_0, P_0 = R, see the module notes): the first ``settling_samples()``
+        samples are the filter's warm-up, and a score taken over the whole record includes
+        it. ``"carry"``: every record starts from the state (x, P) the filter reached at the
+        end of the fitting record, as if it followed that record without a restart (no
+        warm-up, but a record at another rate starts from the fitting record's rate).
 
     Attributes
     ----------
@@ -150,6 +233,9 @@ class KalmanDenoiser(Compensator):
         Sample rate of the fitting record, Hz.
     variogram_ : ndarray, shape (m_max,)
         Variogram of the fitting record, (rad/s)^2 (empty when both noises were given).
+    x_end_, p_end_ : float or None
+        Filter state and its variance at the end of the fitting record, rad/s and (rad/s)^2
+        (the start of every record with ``start="carry"``; None with ``"restart"``).
 
     Notes
     -----
@@ -172,16 +258,66 @@ class KalmanDenoiser(Compensator):
     supervised = False
     random = False
 
-    def __init__(self, arw_rad_rt_s=None, rrw_rad_s_rt_s=None, smoother=False):
+    def __init__(self, arw_rad_rt_s=None, rrw_rad_s_rt_s=None, smoother=False,
+                 arw_deg_rt_h=None, rate_walk_dps_rt_s=None, start="restart"):
         self.arw_rad_rt_s = arw_rad_rt_s
         self.rrw_rad_s_rt_s = rrw_rad_s_rt_s
         self.smoother = smoother
+        self.arw_deg_rt_h = arw_deg_rt_h
+        self.rate_walk_dps_rt_s = rate_walk_dps_rt_s
+        self.start = start
 
-    def _fit(self, data: GyroData, error) -> None:
-        arw = _check_optional_positive("arw_rad_rt_s", self.arw_rad_rt_s)
-        rrw = _check_optional_positive("rrw_rad_s_rt_s", self.rrw_rad_s_rt_s)
+    def _validate(self):
+        """Check every hyperparameter; returns the given ARW and RRW in SI (or None)."""
+        arw = _one_of("arw_rad_rt_s", self.arw_rad_rt_s, "arw_deg_rt_h", self.arw_deg_rt_h,
+                      DEG_RT_H)
+        rrw = _one_of("rrw_rad_s_rt_s", self.rrw_rad_s_rt_s, "rate_walk_dps_rt_s",
+                      self.rate_walk_dps_rt_s, DPS)
         if not isinstance(self.smoother, (bool, np.bool_)):
             raise ValueError(f"smoother: expected True or False, got {self.smoother!r}")
+        if not (isinstance(self.start, str) and self.start in STARTS):
+            raise ValueError(f"start: expected one of {list(STARTS)}, got {self.start!r}")
+        return arw, rrw
+
+    def settling_samples(self, fs: float | None = None, tol: float = 0.05) -> int:
+        """Samples until a restarted filter's gain is within ``tol`` of its steady state.
+
+        From x_0 = z_0, P_0 = R the gain runs 1/2, 1/3, ... (a running mean) until the process
+        noise holds it at :func:`steady_state_gain`; the samples before are the warm-up to
+        leave out of a score of the steady filter. With Q = 0 it never settles: returns the
+        sample count at which the running mean's gain 1/(k+1) is below 1e-3 (999).
+
+        Parameters
+        ----------
+        fs : float, optional
+            Sample rate, Hz (default: the fitting record's).
+        tol : float
+            Relative tolerance on the gain.
+
+        Returns
+        -------
+        int
+            Number of samples, >= 1.
+        """
+        self._check_fitted()
+        fs = self.fs_ if fs is None else float(fs)
+        r = self.arw_rad_rt_s_ ** 2 * fs
+        q = self.rrw_rad_s_rt_s_ ** 2 / fs
+        if r == 0:
+            return 1
+        if q == 0:
+            return 999
+        k_ss = steady_state_gain(q, r)
+        p, k = r, 0
+        while True:
+            k += 1
+            gain = (p + q) / (p + q + r)
+            p = (1.0 - gain) * (p + q)
+            if abs(gain - k_ss) <= tol * k_ss or k > 10_000_000:
+                return k
+
+    def _fit(self, data: GyroData, error) -> None:
+        arw, rrw = self._validate()
         fs = data.fs
         if arw is None or rrw is None:
             r_given = None if arw is None else arw ** 2 * fs
@@ -197,28 +333,49 @@ class KalmanDenoiser(Compensator):
         self.rrw_rad_s_rt_s_ = rrw
         self.fs_ = fs
         self.variogram_ = v
+        self.x_end_ = self.p_end_ = None
+        if self.start == "carry" and arw > 0:
+            xs, ps = self._run(data.rate, fs, None)
+            self.x_end_, self.p_end_ = float(xs[-1, 0, 0]), float(ps[-1, 0, 0])
 
-    def filtered(self, data: GyroData) -> np.ndarray:
-        """The filtered (or smoothed) rate, shape (n,), rad/s."""
-        self._check_fitted()
-        z = data.rate
-        n = z.shape[0]
-        r = self.arw_rad_rt_s_ ** 2 * data.fs
-        q = self.rrw_rad_s_rt_s_ ** 2 / data.fs
-        if n == 1 or r == 0.0:
-            return z.copy()
+    def _run(self, z, fs, start):
+        """Forward filter over z; ``start`` None: restart at z_0, else (x, P) to carry."""
+        r = self.arw_rad_rt_s_ ** 2 * fs
+        q = self.rrw_rad_s_rt_s_ ** 2 / fs
         kf = KalmanFilter(dim_x=1, dim_z=1)
         kf.F = np.array([[1.0]])
         kf.H = np.array([[1.0]])
         kf.R = np.array([[r]])
         kf.Q = np.array([[q]])
-        kf.x = np.array([[z[0]]])
-        kf.P = np.array([[r]])
-        means, covs, _, _ = kf.batch_filter(z[1:])
-        xs = np.concatenate([np.array([[[z[0]]]]), means])
-        if not self.smoother:
+        if start is None:                   # the diffuse prior's posterior after z_0
+            if z.shape[0] == 1:
+                return np.array([[[z[0]]]]), np.array([[[r]]])
+            kf.x = np.array([[z[0]]])
+            kf.P = np.array([[r]])
+            means, covs, _, _ = kf.batch_filter(z[1:])
+            return (np.concatenate([np.array([[[z[0]]]]), means]),
+                    np.concatenate([np.array([[[r]]]), covs]))
+        kf.x = np.array([[start[0]]])
+        kf.P = np.array([[start[1]]])
+        means, covs, _, _ = kf.batch_filter(z)
+        return means, covs
+
+    def filtered(self, data: GyroData) -> np.ndarray:
+        """The filtered (or smoothed) rate, shape (n,), rad/s."""
+        self._check_fitted()
+        z = data.rate
+        r = self.arw_rad_rt_s_ ** 2 * data.fs
+        if r == 0.0:
+            return z.copy()
+        start = (self.x_end_, self.p_end_) if self.start == "carry" else None
+        xs, ps = self._run(z, data.fs, start)
+        if not self.smoother or z.shape[0] == 1:
             return xs[:, 0, 0]
-        ps = np.concatenate([np.array([[[r]]]), covs])
+        kf = KalmanFilter(dim_x=1, dim_z=1)
+        kf.F = np.array([[1.0]])
+        kf.H = np.array([[1.0]])
+        kf.R = np.array([[r]])
+        kf.Q = np.array([[self.rrw_rad_s_rt_s_ ** 2 / data.fs]])
         xs_s, _, _, _ = kf.rts_smoother(xs, ps)
         return xs_s[:, 0, 0]
 
@@ -227,11 +384,13 @@ class KalmanDenoiser(Compensator):
 
     def _state(self):
         info = {"arw_rad_rt_s_": self.arw_rad_rt_s_, "rrw_rad_s_rt_s_": self.rrw_rad_s_rt_s_,
-                "fs_": self.fs_}
+                "fs_": self.fs_, "x_end_": self.x_end_, "p_end_": self.p_end_}
         return info, {"variogram_": self.variogram_}
 
     def _restore(self, info, arrays):
         self.arw_rad_rt_s_ = float(info["arw_rad_rt_s_"])
         self.rrw_rad_s_rt_s_ = float(info["rrw_rad_s_rt_s_"])
         self.fs_ = float(info["fs_"])
+        self.x_end_ = None if info["x_end_"] is None else float(info["x_end_"])
+        self.p_end_ = None if info["p_end_"] is None else float(info["p_end_"])
         self.variogram_ = np.asarray(arrays["variogram_"], dtype=float)

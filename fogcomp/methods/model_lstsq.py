@@ -117,7 +117,7 @@ class ModelLstsq(Compensator):
             raise ValueError(f"terms: expected a sequence of group names among "
                              f"{list(TERM_GROUPS)}, got {terms!r}")
         terms = tuple(terms)
-        bad = [t for t in terms if t not in TERM_GROUPS]
+        bad = [t for t in terms if not isinstance(t, str) or t not in TERM_GROUPS]
         if bad:
             raise ValueError(f"terms: unknown group(s) {bad}; valid: {list(TERM_GROUPS)}")
         if not terms:
@@ -148,19 +148,22 @@ class ModelLstsq(Compensator):
                 cols.append(dT * dT)
         return np.column_stack(cols)
 
-    def _fit(self, data, error):
+    def _validate(self) -> tuple:
+        """Check every hyperparameter; returns the term groups in canonical order."""
         groups = self._groups()
-        if self.t0_c is None:
-            t0 = float(np.mean(data.temp))
-        elif (isinstance(self.t0_c, (int, float, np.integer, np.floating))
-              and np.isfinite(self.t0_c)):
-            t0 = float(self.t0_c)
-        else:
+        if self.t0_c is not None and not (
+                isinstance(self.t0_c, (int, float, np.integer, np.floating))
+                and not isinstance(self.t0_c, bool) and np.isfinite(self.t0_c)):
             raise ValueError(f"t0_c: must be a finite temperature in degC or None, "
                              f"got {self.t0_c!r}")
-        if not (isinstance(self.rcond, (int, float, np.floating)) and np.isfinite(self.rcond)
-                and self.rcond > 0):
+        if not (isinstance(self.rcond, (int, float, np.floating)) and not isinstance(
+                self.rcond, bool) and np.isfinite(self.rcond) and self.rcond > 0):
             raise ValueError(f"rcond: must be a positive finite number, got {self.rcond!r}")
+        return groups
+
+    def _fit(self, data, error):
+        groups = self._validate()
+        t0 = float(np.mean(data.temp)) if self.t0_c is None else float(self.t0_c)
         names = tuple(c[0] for g in groups for c in TERM_GROUPS[g])
         true_rate = data.rate - error
         X = self._columns(data, true_rate, groups, t0)
@@ -172,14 +175,31 @@ class ModelLstsq(Compensator):
         self.coef_, self.coef_names_, self.t0_c_, self.identifiability_ = coef, names, t0, ident
 
     def _estimate(self, data):
-        names = self.coef_names_
-        groups = tuple(g for g in TERM_GROUPS if any(c[0] in names for c in TERM_GROUPS[g]))
-        X = self._columns(data, data.rate, groups, self.t0_c_)
-        if "scale_factor" not in names:
-            return X @ self.coef_
-        j = names.index("scale_factor")
-        k = self.coef_[j]
-        other = X @ self.coef_ - k * X[:, j]
+        # the same sum as ``columns @ coef_``, accumulated term by term so that a long record
+        # does not build its (n, n_coef) design matrix
+        c = dict(zip(self.coef_names_, self.coef_))
+        n = len(data)
+        other = np.full(n, c.get("bias", 0.0))
+        if any(k in c for k in ("gx", "gy", "gz", "gxx", "gyy", "gzz", "gxy", "gyz", "gxz")):
+            gx, gy, gz = data.g[:, 0], data.g[:, 1], data.g[:, 2]
+            for name, col in (("gx", gx), ("gy", gy), ("gz", gz)):
+                if name in c:
+                    other += c[name] * col
+            for name, a, b in (("gxx", gx, gx), ("gyy", gy, gy), ("gzz", gz, gz),
+                               ("gxy", gx, gy), ("gyz", gy, gz), ("gxz", gx, gz)):
+                if name in c:
+                    other += c[name] * (a * b)
+        if "temp" in c or "temp2" in c:
+            dT = data.temp - self.t0_c_
+            if "temp" in c:
+                other += c["temp"] * dT
+            if "temp2" in c:
+                other += c["temp2"] * (dT * dT)
+        if "temp_rate" in c:
+            other += c["temp_rate"] * data.temp_rate
+        if "scale_factor" not in c:
+            return other
+        k = c["scale_factor"]
         return (k * data.rate + other) / (1.0 + k)
 
     def coef_dict(self) -> dict:

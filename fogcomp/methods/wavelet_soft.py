@@ -19,7 +19,14 @@ Choices (paper 000 names the method but gives none of its settings):
   the usual VisuShrink recipe); ``fit`` only checks its input and records the fitting record's
   sigma for information (``sigma_``).
 * threshold ``"universal"``: ``sigma * sqrt(2 ln n)``, n = record length, the same on every
-  level; or a fixed number in rad/s.
+  level; ``"sure"``: Stein's unbiased risk estimate minimised on each level (MATLAB
+  ``thselect(x, 'rigrsure')`` on the coefficients divided by sigma, times sigma, as ``wden``
+  with ``'sln'`` does), a threshold per level; or a fixed number in rad/s.
+
+The level decides the result on white noise (what survives is the level-L approximation of
+the noise, std ~ sigma / sqrt(2^L)); a scenario should score the levels from 3 to the maximum
+as a band rather than one pick. Paper 000's 0.1156 deg/s suggests a shallower split or a SURE
+threshold (its settings are not given).
 """
 
 from __future__ import annotations
@@ -35,7 +42,11 @@ import pywt
 from .._checks import _mode, _wavelet
 from ..base import Compensator, GyroData, register
 
-__all__ = ["WaveletSoftThreshold", "SoftDenoiseResult", "soft_denoise", "mad_sigma"]
+__all__ = ["WaveletSoftThreshold", "SoftDenoiseResult", "soft_denoise", "mad_sigma",
+           "sure_threshold", "THRESHOLDS"]
+
+#: Named threshold rules (a number is also accepted).
+THRESHOLDS = ("universal", "sure")
 
 #: Median of |N(0, 1)|: ``median(|d|) / MAD_GAUSS`` estimates the standard deviation of Gaussian d.
 MAD_GAUSS = 0.6744897501960817
@@ -51,15 +62,49 @@ class SoftDenoiseResult(NamedTuple):
     sigma : float
         Noise standard deviation estimated from the finest detail coefficients, input unit.
     threshold : float
-        The threshold applied to every detail coefficient, input unit.
+        The threshold applied to every detail coefficient (the largest of
+        ``level_thresholds`` for ``"sure"``), input unit.
     level : int
         Decomposition level used.
+    level_thresholds : ndarray, shape (level,)
+        Threshold of each detail level, coarsest (D_level) first, finest (D_1) last.
     """
 
     denoised: np.ndarray
     sigma: float
     threshold: float
     level: int
+    level_thresholds: np.ndarray
+
+
+def sure_threshold(x) -> float:
+    """SURE threshold of coefficients of unit noise variance (MATLAB ``rigrsure``).
+
+    For soft thresholding of x_i ~ N(mu_i, 1) at t, Stein's unbiased estimate of the risk is
+    ``n - 2 #{|x_i| <= t} + sum min(x_i^2, t^2)``; it is minimised over t in {|x_i|}.
+
+    Parameters
+    ----------
+    x : array_like, shape (m,)
+        Coefficients divided by the noise standard deviation.
+
+    Returns
+    -------
+    float
+        The threshold, in units of the noise standard deviation.
+
+    References
+    ----------
+    .. [1] D. L. Donoho and I. M. Johnstone, "Adapting to unknown smoothness via wavelet
+       shrinkage", J. Amer. Statist. Assoc. 90(432), 1200-1224, 1995 (SureShrink, eq. 11).
+    """
+    sx2 = np.sort(np.abs(np.asarray(x, dtype=float))) ** 2
+    n = sx2.size
+    if n == 0:
+        return 0.0
+    i = np.arange(1, n + 1)
+    risks = (n - 2.0 * i + np.cumsum(sx2) + (n - i) * sx2) / n
+    return float(math.sqrt(sx2[int(np.argmin(risks))]))
 
 
 def mad_sigma(d: np.ndarray) -> float:
@@ -94,15 +139,15 @@ def _check_wavelet(wavelet) -> pywt.Wavelet:
 
 def _check_threshold(threshold):
     if isinstance(threshold, str):
-        if threshold != "universal":
-            raise ValueError(f"threshold: expected 'universal' or a non-negative number in rad/s, "
-                             f"got {threshold!r}")
+        if threshold not in THRESHOLDS:
+            raise ValueError(f"threshold: expected one of {list(THRESHOLDS)} or a non-negative "
+                             f"number in rad/s, got {threshold!r}")
         return threshold
     if (isinstance(threshold, numbers.Real) and not isinstance(threshold, bool)
             and math.isfinite(threshold) and threshold >= 0):
         return float(threshold)
-    raise ValueError(f"threshold: expected 'universal' or a non-negative finite number in rad/s, "
-                     f"got {threshold!r}")
+    raise ValueError(f"threshold: expected one of {list(THRESHOLDS)} or a non-negative finite "
+                     f"number in rad/s, got {threshold!r}")
 
 
 def _resolve_level(level, n: int, w: pywt.Wavelet) -> int:
@@ -144,9 +189,10 @@ def soft_denoise(x, wavelet="db6", level=None, mode="symmetric",
         A deeper level than that is clamped to it, with a warning.
     mode : str
         PyWavelets signal extension mode.
-    threshold : "universal" or float
+    threshold : "universal", "sure" or float
         ``"universal"``: ``t = sigma * sqrt(2 ln n)`` with sigma from :func:`mad_sigma` of the
-        finest details; a number: t itself, unit of ``x``.
+        finest details; ``"sure"``: on each level, ``sigma * sure_threshold(d / sigma)``
+        (:func:`sure_threshold`); a number: t itself, unit of ``x``.
 
     Returns
     -------
@@ -175,10 +221,16 @@ def soft_denoise(x, wavelet="db6", level=None, mode="symmetric",
         warnings.filterwarnings("ignore", message="Level value of", category=UserWarning)
         coeffs = pywt.wavedec(x, w, mode=mode, level=lev)
     sigma = mad_sigma(coeffs[-1])
-    t = sigma * math.sqrt(2.0 * math.log(n)) if threshold == "universal" else threshold
-    shrunk = [coeffs[0]] + [pywt.threshold(d, t, mode="soft") for d in coeffs[1:]]
+    if threshold == "universal":
+        ts = np.full(lev, sigma * math.sqrt(2.0 * math.log(n)))
+    elif threshold == "sure":
+        ts = np.array([sigma * sure_threshold(d / sigma) if sigma > 0 else 0.0
+                       for d in coeffs[1:]])
+    else:
+        ts = np.full(lev, float(threshold))
+    shrunk = [coeffs[0]] + [pywt.threshold(d, t, mode="soft") for d, t in zip(coeffs[1:], ts)]
     y = pywt.waverec(shrunk, w, mode=mode)[:n]
-    return SoftDenoiseResult(y, sigma, float(t), lev)
+    return SoftDenoiseResult(y, sigma, float(ts.max()), lev, ts)
 
 
 @register
@@ -190,12 +242,13 @@ class WaveletSoftThreshold(Compensator):
     wavelet : str, default "db6"
         Orthogonal PyWavelets wavelet (paper 000's wavelet).
     level : int or None, default None
-        Decomposition level; None for ``pywt.dwt_max_level`` of each record denoised.
+        Decomposition level (any from 1; 3 .. the maximum is the range worth scanning); None
+        for ``pywt.dwt_max_level`` of each record denoised.
     mode : str, default "symmetric"
         PyWavelets signal extension mode.
-    threshold : "universal" or float, default "universal"
+    threshold : "universal", "sure" or float, default "universal"
         ``"universal"`` for ``sigma * sqrt(2 ln n)`` with sigma estimated on each record;
-        or a fixed threshold, rad/s.
+        ``"sure"`` for a SURE (rigrsure) threshold per level; or a fixed threshold, rad/s.
 
     Attributes
     ----------

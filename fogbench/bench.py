@@ -84,4 +84,8 @@ def main(seconds: float = 600.0, repeats: int = 5) -> int:
 
     print()
     bench_allan(n=10**7, repeats=min(repeats, 3))
+    from .bench_methods import main as bench_methods
+
+    print()
+    bench_methods(repeats=min(repeats, 3))
     return 0

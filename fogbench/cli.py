@@ -79,23 +79,89 @@ def _cmd_simulate(args) -> int:
     return 0
 
 
+def _engine(args):
+    """The executor the flags ask for (``fogbench.executor``), checked before any work."""
+    from .executor import make_executor
+
+    opts = None
+    if getattr(args, "cluster_config", None):
+        opts = _cluster_options(args.cluster_config)
+    return make_executor(jobs=args.jobs, scheduler=args.scheduler, cluster=args.cluster,
+                         cluster_options=opts)
+
+
+def _engine_label(args) -> str:
+    from .executor import engine_label
+
+    return engine_label(args.jobs, args.scheduler, args.cluster)
+
+
+def _cluster_options(path: str) -> dict:
+    """The ``[cluster]`` table of a TOML config file (queue, cores, memory, walltime...)."""
+    import tomllib
+
+    from .scenario import decode_text
+
+    p = Path(path)
+    try:
+        text = decode_text(p.read_bytes(), str(p))
+        doc = tomllib.loads(text)
+    except OSError as exc:
+        raise ValueError(f"--cluster-config {path}: cannot read ({exc.strerror})") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ValueError(f"--cluster-config {path}: not valid TOML ({exc})") from None
+    if set(doc) != {"cluster"} or not isinstance(doc["cluster"], dict):
+        raise ValueError(f"--cluster-config {path}: expected one table [cluster] (queue, cores, "
+                         f"memory, walltime, ...), got {sorted(doc)}")
+    return doc["cluster"]
+
+
 def _cmd_run(args) -> int:
+    import contextlib
+
+    from .executor import SerialExecutor
+    from .montecarlo import ScenarioMC
     from .outdir import check_out_dir
+    from .progress import Progress
     from .report import write_run_dir
-    from .runner import run_scenario
     from .scenario import RUNNER_SECTIONS, load_plan, load_scenario
 
     sc = load_scenario(args.scenario, extra_sections=RUNNER_SECTIONS)  # refuse bad input first
-    load_plan(sc)
+    plan = load_plan(sc)
+    if args.method:
+        unknown = sorted(set(args.method) - {m.label for m in plan.methods})
+        if unknown:
+            raise ValueError(f"--method: {args.scenario}: no method labelled {unknown}; "
+                             f"methods: {[m.label for m in plan.methods]}")
     name = sc.name
     out = check_out_dir(args.out if args.out is not None else Path("reports") / name, "run")
     say = (lambda msg: None) if args.quiet else (
         lambda msg: print(f"[{name}] {msg}", file=sys.stderr, flush=True))
-    res = run_scenario(args.scenario, progress=say, methods=args.method)
-    write_run_dir(res, out, recording=not args.no_recording)
-    failed = _failed(res.metrics)
+    mc = ScenarioMC(args.scenario, out, replicates=args.replicates,
+                    method_seeds=args.method_seeds, methods=args.method, resume=args.resume)
+    engine = _engine(args) if mc.todo else contextlib.nullcontext(SerialExecutor())
+    try:
+        with engine as ex:
+            mc.submit(ex)
+            mc.run_first(say)
+            with Progress(len(mc.todo), f"{name}: replicates", quiet=args.quiet or not mc.todo,
+                          ) as bar:
+                from concurrent.futures import as_completed
+
+                for fut in as_completed(mc.futures):
+                    bar.advance(failed=not mc.collect(fut))
+    except (KeyboardInterrupt, Exception):
+        if len(mc.done) > 1 or mc.resumed:
+            print(f"fogbench: {len(mc.done)} replicate(s) of {name} are kept in {mc.work.path}; "
+                  "run again with --resume to go on", file=sys.stderr)
+        raise
+    doc = mc.finish(_engine_label(args) if mc.todo else "this process")
+    write_run_dir(mc.res0, out, recording=not args.no_recording,
+                  montecarlo=doc if mc.R > 1 else None, work=mc.work)
+    failed = _failed(mc.res0.metrics)
     print(f"{name}: wrote {out}/report.md, metrics.json"
           + ("" if args.no_recording else ", recording.rrd")
+          + (f" ({mc.R} replicates)" if mc.R > 1 else "")
           + (f"; FAILED methods: {', '.join(failed)}" if failed else ""))
     return 0
 
@@ -166,6 +232,22 @@ def _number(kind, lo, lo_open=False, hi=None):
     return parse
 
 
+def _mc_flags(p) -> None:
+    """Flags of the Monte Carlo and where it runs (``run`` and ``suite``)."""
+    p.add_argument("--replicates", type=_number(int, 1, hi=10_000),
+                   help="replicates R (overrides the file's [montecarlo] replicates)")
+    p.add_argument("--method-seeds", type=_number(int, 1, hi=1000),
+                   help="random starts per fit of a random method (overrides method_seeds)")
+    p.add_argument("--jobs", type=_number(int, 1, hi=256), default=None,
+                   help="local worker processes (default: the machine's cores)")
+    p.add_argument("--scheduler", help="a running Dask scheduler, tcp://HOST:PORT "
+                   "(pip install 'fogbench[distributed]'; workers need fogbench installed)")
+    p.add_argument("--cluster", choices=("slurm", "pbs"),
+                   help="start Dask workers as batch jobs (dask-jobqueue); see --cluster-config")
+    p.add_argument("--cluster-config",
+                   help="TOML file with a [cluster] table: queue, cores, memory, walltime, ...")
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="fogbench", description="FOG error-compensation testbench")
     sub = p.add_subparsers(dest="command", required=True)
@@ -185,6 +267,10 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--method", action="append", help="only this method label (repeatable)")
     r.add_argument("--no-recording", action="store_true", help="do not write recording.rrd")
     r.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    _mc_flags(r)
+    r.add_argument("--resume", action="store_true",
+                   help="keep the replicates a killed run left (same scenario file and fogbench "
+                        "version) and compute only the rest")
     r.set_defaults(func=_cmd_run)
 
     c = sub.add_parser("check", help="validate scenario files (nothing is simulated or written)")

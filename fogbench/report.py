@@ -341,14 +341,17 @@ def _fit_notes(pd: dict) -> str:
     return "\n".join(lines)
 
 
-def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_data: bool = True
-                  ) -> Path:
+def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_data: bool = True,
+                  montecarlo: dict | None = None, work=None) -> Path:
     """Write metrics.json, report.md, figures, data (and recording.rrd) into ``out``.
 
     Everything is written into a hidden temporary sibling (its marker file first), which then
     replaces ``out``: an interrupted run leaves the previous complete directory, never a
     half-written one, and only an empty directory or a run directory of ours is ever replaced
     (``fogbench.outdir``). A figure that cannot be drawn is left out with a note in the report.
+    ``montecarlo`` is the replicate aggregate (``fogbench.montecarlo``; in ``metrics.json`` under
+    that key, in the report, in the recording); ``work`` the replicates' work folder, whose files
+    move into ``replicates/``.
     """
     out = check_out_dir(out, "run")
     tmp = new_part_dir(out, "run", {"scenario": res.scenario.name,
@@ -388,8 +391,16 @@ def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_d
         first = next(iter(res.data))
         if figure("thermal", fig_thermal, res, first, tmp / "figures" / "thermal.png"):
             fig_names[("thermal",)] = "figures/thermal.png"
-        write_metrics(tmp / "metrics.json", res.metrics)
+        if montecarlo is not None:
+            if figure("replicate distributions", fig_replicates, res, montecarlo,
+                      tmp / "figures" / "replicates.png"):
+                fig_names[("replicates",)] = "figures/replicates.png"
+        write_metrics(tmp / "metrics.json",
+                      res.metrics if montecarlo is None else {**res.metrics,
+                                                              "montecarlo": montecarlo})
         text = render_report(res, fig_names, decim)
+        if montecarlo is not None:
+            text = _insert_mc(text, render_montecarlo(res, montecarlo, fig_names))
         if notes:
             text += "\n## Left out\n\n" + "\n".join(f"- {n}" for n in notes) + "\n"
         atomic_write_text(tmp / "report.md", text)
@@ -409,9 +420,181 @@ def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_d
         if recording:
             from .recording import write_recording
 
-            write_recording(res, tmp / "recording.rrd")
+            write_recording(res, tmp / "recording.rrd",
+                            replicates=None if montecarlo is None else
+                            recording_replicates(montecarlo, work))
+        if work is not None:
+            work.move_into(tmp)
         replace_dir(tmp, out, "run")
+        if work is not None:
+            work.remove()
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     return out
+
+
+# ---------------------------------------------------------------------------------------------
+# Monte Carlo: the distributions over replicates
+def _ci_text(sm: dict | None, metric: str) -> str:
+    """``mean [lo, hi]`` of a replicate summary, or why there is none."""
+    if not sm or not sm.get("n"):
+        return "not computed" if not sm or not sm.get("n_failed") else "failed"
+    txt = fmt(sm["mean"], metric)
+    if sm.get("ci_low") is not None and sm.get("ci_high") is not None:
+        txt += f" [{fmt(sm['ci_low'], metric)}, {fmt(sm['ci_high'], metric)}]"
+    if sm.get("n_failed"):
+        txt += f" ({sm['n_failed']} failed)"
+    return txt
+
+
+def key_metric(mc: dict, protocol: str, plan) -> str | None:
+    """The metric a protocol's distribution figure shows: a claim's, else the first key one."""
+    have = mc["over_runs"].get(protocol, {}).get("raw", {})
+    for c in plan.claims:
+        if c.metric in have:
+            return c.metric
+    for m in ("drift_rms_dph", "bias_stability_100s_dph", "rmse_dph", "coef_rms_error_dph",
+              "arw_deg_rt_h", "std_dps"):
+        if m in have:
+            return m
+    return None
+
+
+def fig_replicates(res: ScenarioResult, mc: dict, path: Path) -> bool:
+    """Each protocol's key metric over replicates: one column per method (raw and oracle too),
+    every replicate a point, a box for the quartiles."""
+    prots = [p for p in res.plan.protocols if key_metric(mc, p.name, res.plan)]
+    if not prots or mc["replicates"] < 2:
+        return False
+    fig, axes = plt.subplots(1, len(prots), figsize=(4.2 * len(prots) + 1.5, 4.2), squeeze=False)
+    rng = np.random.default_rng(0)  # horizontal jitter of the points only
+    for ax, prot in zip(axes[0], prots):
+        metric = key_metric(mc, prot.name, res.plan)
+        ser = mc["series"].get(prot.name, {}).get(metric, {})
+        labels = [lab for lab in ser if any(v is not None for v in ser[lab])]
+        data = [np.array([v for v in ser[lab] if v is not None]) for lab in labels]
+        ax.boxplot(data, positions=range(len(labels)), widths=0.5, showfliers=False,
+                   medianprops={"color": "k"})
+        for i, (lab, d) in enumerate(zip(labels, data)):
+            ax.plot(i + rng.uniform(-0.15, 0.15, d.size), d, "o", ms=3.5, alpha=0.7,
+                    color=_color(lab, labels) or "tab:blue", zorder=3)
+        ax.set_xticks(range(len(labels)), labels, rotation=30, ha="right")
+        ax.set_ylabel(metric)
+        flag = " (in-sample)" if prot.in_sample else ""
+        ax.set_title(f"{prot.name}{flag}: {mc['replicates']} replicates", fontsize=10)
+        if metric.endswith("_dph") and all(d.size and np.all(d > 0) for d in data):
+            ax.set_yscale("log")
+        ax.grid(alpha=0.3)
+    fig.tight_layout()
+    _save(fig, path)
+    return True
+
+
+def recording_replicates(mc: dict, work=None) -> dict:
+    """What the recording shows over replicates: {protocol: {metric: {label: [values]}}}."""
+    return mc.get("series", {})
+
+
+def render_montecarlo(res: ScenarioResult, mc: dict, fig_names: dict) -> str:
+    plan = res.plan
+    R, K = mc["replicates"], mc["method_seeds"]
+    cost = mc.get("cost", {})
+    L = [f"## Over {R} replicates (Monte Carlo)", "",
+         f"{R} replicate(s) of every power-on (requested {mc['replicates_requested']}), "
+         f"{K} method seed(s) per fit of a random method, scenario seed {mc['seed']}, on "
+         f"{mc['engine']}. Replicate r draws every random stream (switch-on draws, noise, "
+         "sensor noise, method starts) from (scenario seed, r, run, stream); the table's motion "
+         "is the same in all. Values: mean [95 % t-interval of the mean] over replicates, of "
+         "the mean over a protocol's scored runs (per run: `metrics.json`, key `montecarlo`). "
+         "The figures and tables below this section show replicate 0 alone.", ""]
+    if cost.get("first_run_s"):
+        L += [f"Cost: first run {cost['first_run_s']:.1f} s (table simulated); a replicate "
+              + (f"{cost['replicate_median_s']:.2f} s (median) = "
+                 f"{cost['replicate_over_first']:.2f} of the first run."
+                 if cost.get("replicate_median_s") else "–."), ""]
+    if mc.get("failed_replicates"):
+        L += [f"Failed replicates ({len(mc['failed_replicates'])}): "
+              + "; ".join(f"r{f['replicate']}: {f['error']}" for f in mc["failed_replicates"]),
+              ""]
+    if mc["claims"]:
+        L += ["### The papers' claims", "",
+              "Verdict by the claimed quantity's interval over replicates: **agrees** (inside "
+              "the claimed range), **disagrees** (outside), **inconclusive** (overlapping), "
+              "**untestable** (the claim asks more than the oracle, the best model of the "
+              "deterministic error terms, can give here). The oracle's improvement is shown "
+              "beside every claim.", ""]
+        for c in mc["claims"]:
+            lo = "" if c["min_pct"] is None else f"{c['min_pct']:g}"
+            hi = "" if c["max_pct"] is None else f"{c['max_pct']:g}"
+            rng = f"{lo}..{hi} %"
+            sm, osm = c["summary"], c["oracle_improvement"]
+            tag = " (in-sample, the paper's protocol)" if c["in_sample"] else " (held out)"
+            held = "–" if c["held"] is None else f"{100 * c['held']:.0f} %"
+            first = c["paired"].get("first_better")
+            L.append(f"- {c['source']}: \"{c['text']}\" — `{c['protocol']}`{tag}: "
+                     f"{c['better']} vs {c['than']} on {c['metric']}: "
+                     f"{_ci_text(sm, '_pct')} % (claim {rng}): **{c['verdict']}**; the claim "
+                     f"held in {held} of replicates; {c['better']} better than {c['than']} in "
+                     f"{'–' if first is None else f'{100 * first:.0f} %'} of replicates. "
+                     f"Oracle over {c['than']}: {_ci_text(osm, '_pct')} %"
+                     + ("" if c["oracle_bounds_claim"] else
+                        f" (not a bound here: {c['better']} also filters noise)") + ".")
+        L.append("")
+    if mc["rankings"]:
+        L += ["### Rankings against the papers' tables", "",
+              "Probability of each ordering over replicates (`<` reads 'better than').", ""]
+        for rk in mc["rankings"]:
+            top = "; ".join(f"{o['ordering']}: {100 * o['probability']:.0f} %"
+                            for o in rk["orderings"][:3])
+            L.append(f"- `{rk['protocol']}`, {rk['run']}, {rk['metric']}: the paper's order "
+                     f"{' < '.join(rk['paper_order'])} in {100 * rk['p_paper_order']:.0f} % of "
+                     f"replicates. Most frequent: {top}.")
+        L.append("")
+    refs = [pv for pv in plan.paper if pv.segment is None]
+    if refs:
+        L += ["### Against the references", ""]
+        for pv in refs:
+            for prot in plan.protocols:
+                runs = [pv.run] if pv.run else list(mc["summary"].get(prot.name, {}))
+                for run in runs:
+                    sm = mc["summary"].get(prot.name, {}).get(run, {}).get(pv.method, {}).get(
+                        pv.metric)
+                    ours = (_ci_text(sm, pv.metric) if sm and sm.get("n") else
+                            "not identified" if pv.metric in ("arw_deg_rt_h",
+                                                              "bias_instability_dph",
+                                                              "rrw_dph_rt_h") else "not computed")
+                    L.append(f"- `{prot.name}`, {run}, {pv.method}, {pv.metric}: reference "
+                             f"{fmt(pv.value, pv.metric)} ({pv.source}); ours {ours}.")
+        L.append("")
+    for prot in plan.protocols:
+        po = mc["over_runs"].get(prot.name, {})
+        metrics = [m for m in KEY_METRICS if m not in ("fit_time_s",) and any(
+            m in po.get(lab, {}) for lab in po)]
+        if not metrics:
+            continue
+        flag = " (IN-SAMPLE)" if prot.in_sample else ""
+        rows = [[lab] + [_ci_text(po.get(lab, {}).get(m), m) for m in metrics] for lab in po]
+        L += [f"### `{prot.name}`{flag}: mean over scored runs, over replicates", "",
+              md_table(["method"] + metrics, rows), ""]
+        spread = mc.get("seed_spread", {}).get(prot.name, {})
+        if spread:
+            bits = []
+            for run, by_label in spread.items():
+                for lab, by_metric in by_label.items():
+                    km = key_metric(mc, prot.name, plan)
+                    if km in by_metric:
+                        bits.append(f"{lab} on {run}: {fmt(by_metric[km]['mean_std_over_seeds'], km)}")
+            if bits:
+                L += [f"Spread over the {K} method seeds inside a replicate (std of "
+                      f"{key_metric(mc, prot.name, plan)}, mean over replicates): "
+                      + "; ".join(bits) + ".", ""]
+    if ("replicates",) in fig_names:
+        L += [f"![distributions over replicates]({fig_names[('replicates',)]})", ""]
+    return "\n".join(L)
+
+
+def _insert_mc(text: str, section: str) -> str:
+    """Put the Monte Carlo section before the first protocol's single-replicate tables."""
+    i = text.find("\n## Protocol ")
+    return text + "\n" + section if i < 0 else text[:i + 1] + section + "\n" + text[i + 1:]

@@ -1,0 +1,452 @@
+"""Monte Carlo over power-ons and method seeds: every number of a scenario as a distribution.
+
+A scenario runs R replicates (``[montecarlo] replicates``, or ``--replicates``). Replicate r
+draws every random stream from (scenario seed, r, run, stream) alone (``fogbench.runner``); the
+table's motion is deterministic and simulated once per run definition and process. Each
+replicate's metrics are written atomically, one file each, into a work folder beside the run
+directory (``.<name>.replicates``, with the bench's marker), so a killed run loses only the
+replicates in flight and ``--resume`` skips the completed ones. When all are done the files move
+into ``<run dir>/replicates/`` and the aggregate goes into ``metrics.json`` under
+``"montecarlo"``: per protocol, run, method and metric the mean, median, standard deviation and
+the 95 % t-interval of the mean over replicates (``fogbench.stats``); the claims' verdicts
+(agrees / disagrees / inconclusive / untestable) with the oracle's improvement beside them; the
+probability of each ranking of the methods a paper compares.
+
+Replicate 0 is the single run of old (the runs' own seeds): it is computed in full in the main
+process, for the report's figures and the recording, while the other replicates run on the
+executor (a local process pool, or Dask).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import shutil
+import time
+from pathlib import Path
+
+import numpy as np
+
+from . import stats as S
+from .io import atomic_write_text, versions
+from .outdir import MARKER, OutDirError
+
+__all__ = ["MonteCarloError", "replicate_task", "replicate_doc", "aggregate", "WorkDir",
+           "scenario_digest", "TIMING_METRICS"]
+
+TIMING_METRICS = ("fit_time_s", "compensate_time_s", "compensate_samples_per_s")
+# per-replicate values kept for the distribution figure and the recording (mean over scored runs)
+SERIES_METRICS = ("rmse_dph", "std_dps", "bias_stability_100s_dph", "drift_rms_dph",
+                  "coef_rms_error_dph", "arw_deg_rt_h", "bias_instability_dph", "rrw_dph_rt_h",
+                  "improvement_rmse_pct", "improvement_bias_stability_pct",
+                  "improvement_drift_pct", "improvement_std_pct")
+_TRUTHS: dict = {}   # per process: (scenario file, digest) -> {run name: Truth}
+
+
+class MonteCarloError(ValueError):
+    """A Monte Carlo run cannot go on as asked (e.g. ``--resume`` on another scenario)."""
+
+
+def scenario_digest(text: str) -> str:
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+# ---------------------------------------------------------------------------------------------
+# One replicate (runs on a worker)
+def replicate_task(task: tuple) -> dict:
+    """Worker: ``(scenario path, replicate r, method_seeds K, method labels or None)`` -> the
+    replicate's metrics (:func:`replicate_doc`). The table's motion is cached per process."""
+    from .runner import run_scenario
+
+    path, r, k, methods = task
+    text = Path(path).read_bytes()
+    cache = _TRUTHS.setdefault((str(path), hashlib.sha256(text).hexdigest()), {})
+    t0 = time.perf_counter()
+    res = run_scenario(path, replicate=r, method_seeds=k, methods=methods, truths=cache)
+    return replicate_doc(res, time.perf_counter() - t0)
+
+
+def replicate_doc(res, wall_s: float) -> dict:
+    """What a replicate leaves: every scored piece's metrics (and per seed, with K > 1)."""
+    prots: dict = {}
+    for it in res.scored:
+        p = prots.setdefault(it.protocol, {"runs": {}, "seeds": {}})
+        p["runs"][it.run] = {lab: _clean(m) for lab, m in it.metrics.items()}
+        if it.seed_metrics:
+            p["seeds"][it.run] = {lab: [_clean(m) for m in ms]
+                                  for lab, ms in it.seed_metrics.items()}
+    return {"replicate": int(res.metrics.get("replicate", 0)),
+            "method_seeds": int(res.metrics.get("method_seeds", 1)),
+            "wall_s": wall_s, "protocols": prots}
+
+
+def _clean(v):
+    if isinstance(v, float) and not math.isfinite(v):
+        return None
+    if isinstance(v, dict):
+        return {k: _clean(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_clean(x) for x in v]
+    if isinstance(v, np.generic):
+        return _clean(v.item())
+    return v
+
+
+# ---------------------------------------------------------------------------------------------
+# The work folder: one file per completed replicate, resumable
+class WorkDir:
+    """``.<run dir name>.replicates`` beside the run directory: ``r00000.json``, ... and the
+    marker naming the scenario (its text's SHA-256), the fogbench version, K and the methods."""
+
+    def __init__(self, out: Path, sc, method_seeds: int, methods: list[str] | None):
+        self.out = Path(out)
+        self.path = self.out.parent / f".{self.out.name}.replicates"
+        self.identity = {"kind": "replicates", "scenario": sc.name,
+                         "scenario_file": str(sc.path), "scenario_sha256": scenario_digest(sc.text),
+                         "fogbench": versions().get("fogbench"), "method_seeds": method_seeds,
+                         "methods": sorted(methods) if methods else None}
+
+    def _mismatch(self, found: dict, where: Path) -> str | None:
+        for key, what in (("scenario_sha256", "another scenario file (or an edited one)"),
+                          ("fogbench", "another fogbench version"),
+                          ("method_seeds", "another method_seeds"), ("methods", "other methods")):
+            if found.get(key) != self.identity[key]:
+                return (f"--resume: {where} holds replicates of {what} "
+                        f"({key}: {found.get(key)!r}, now {self.identity[key]!r}); refused. Run "
+                        "without --resume to start afresh")
+        return None
+
+    def open(self, resume: bool) -> dict[int, dict]:
+        """Prepare the folder; return the completed replicates (empty unless ``resume``)."""
+        found = _marker_any(self.path)
+        if self.path.exists() and found is None:
+            raise OutDirError(f"{self.path} exists and is not a fogbench replicates folder; it "
+                              "was left untouched. Move it away or give another --out")
+        done: dict[int, dict] = {}
+        if resume:
+            sources = [self.path] if found is not None else []
+            prev = self.out / "replicates"
+            if not sources and (self.out / MARKER).exists() and prev.is_dir():
+                sources = [prev]
+            if not sources:
+                raise MonteCarloError(f"--resume: nothing to resume for {self.out} (neither "
+                                      f"{self.path} nor {prev} holds replicates)")
+            src = sources[0]
+            ident = _marker_any(src) if src == self.path else _read_json(prev / "identity.json")
+            msg = self._mismatch(ident or {}, src)
+            if msg:
+                raise MonteCarloError(msg)
+            for f in sorted(src.glob("r*.json")):
+                doc = _read_json(f)
+                if isinstance(doc, dict) and isinstance(doc.get("replicate"), int):
+                    done[doc["replicate"]] = doc
+            if src != self.path:
+                self._create()
+                for r, doc in done.items():
+                    self.write(doc)
+        else:
+            if found is not None:
+                shutil.rmtree(self.path)
+            self._create()
+        return done
+
+    def _create(self) -> None:
+        self.path.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(self.path / MARKER, json.dumps({**self.identity, "pid": os.getpid()},
+                                                         indent=2))
+
+    def write(self, doc: dict) -> None:
+        atomic_write_text(self.path / f"r{doc['replicate']:05d}.json", json.dumps(_clean(doc)))
+
+    def move_into(self, run_tmp: Path) -> None:
+        """Move the replicate files into the new run directory (before it is put in place)."""
+        dest = run_tmp / "replicates"
+        dest.mkdir()
+        for f in sorted(self.path.glob("r*.json")):
+            os.replace(f, dest / f.name)
+        atomic_write_text(dest / "identity.json", json.dumps(self.identity, indent=2))
+
+    def remove(self) -> None:
+        shutil.rmtree(self.path, ignore_errors=True)
+
+
+def _marker_any(path: Path) -> dict | None:
+    doc = _read_json(path / MARKER) if path.is_dir() else None
+    return doc if isinstance(doc, dict) and doc.get("kind") == "replicates" else None
+
+
+def _read_json(path: Path):
+    try:
+        return json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+
+
+# ---------------------------------------------------------------------------------------------
+# Aggregation
+def _is_num(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _value(by_label: dict, label: str, metric: str) -> float:
+    m = by_label.get(label)
+    if not isinstance(m, dict) or m.get("status") == "failed":
+        return math.nan
+    v = m.get(metric)
+    return float(v) if _is_num(v) else math.nan
+
+
+def _series(docs: list[dict], prot: str, run: str, label: str, metric: str) -> np.ndarray:
+    """One value per replicate (mean over method seeds when there are several); NaN: failed
+    or not computed."""
+    out = []
+    for d in docs:
+        p = d["protocols"].get(prot, {})
+        seeds = p.get("seeds", {}).get(run, {}).get(label)
+        if seeds:
+            vals = [float(m[metric]) for m in seeds
+                    if isinstance(m, dict) and m.get("status") != "failed" and _is_num(m.get(metric))]
+            out.append(float(np.mean(vals)) if len(vals) == len(seeds) else math.nan)
+        else:
+            out.append(_value(p.get("runs", {}).get(run, {}), label, metric))
+    return np.asarray(out, dtype=float)
+
+
+def _over_runs(docs, prot: str, runs: list[str], label: str, metric: str) -> np.ndarray:
+    """Per replicate, the mean over ``runs`` (NaN when any is missing)."""
+    cols = [_series(docs, prot, r, label, metric) for r in runs]
+    return np.mean(cols, axis=0) if cols else np.full(len(docs), math.nan)
+
+
+def _improvement(docs, prot, runs, better, than, metric) -> np.ndarray:
+    """Per replicate: 100 (1 - better / than) of the means over ``runs``."""
+    a = _over_runs(docs, prot, runs, better, metric)
+    b = _over_runs(docs, prot, runs, than, metric)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return 100.0 * (1.0 - a / b)
+
+
+def aggregate(docs: list[dict], sc, plan) -> dict:
+    """The replicate distributions of every metric, claim and ranking (see the module doc)."""
+    import fogcomp
+
+    docs = sorted(docs, key=lambda d: d["replicate"])
+    summary: dict = {}
+    over_runs: dict = {}
+    seed_spread: dict = {}
+    runs_of: dict = {}
+    labels = ["raw", "oracle"] + [m.label for m in plan.methods]
+    for prot in plan.protocols:
+        runs: list[str] = []
+        for d in docs:
+            for r in d["protocols"].get(prot.name, {}).get("runs", {}):
+                if r not in runs:
+                    runs.append(r)
+        runs_of[prot.name] = runs
+        metrics: dict[str, set] = {lab: set() for lab in labels}
+        for d in docs:
+            for r in runs:
+                for lab, m in d["protocols"].get(prot.name, {}).get("runs", {}).get(r, {}).items():
+                    if isinstance(m, dict) and lab in metrics:
+                        metrics[lab] |= {k for k, v in m.items()
+                                         if _is_num(v) and k not in TIMING_METRICS}
+        ps = summary.setdefault(prot.name, {})
+        po = over_runs.setdefault(prot.name, {})
+        for lab in labels:
+            for metric in sorted(metrics[lab]):
+                for r in runs:
+                    ps.setdefault(r, {}).setdefault(lab, {})[metric] = \
+                        S.summarize(_series(docs, prot.name, r, lab, metric)).as_dict()
+                po.setdefault(lab, {})[metric] = \
+                    S.summarize(_over_runs(docs, prot.name, runs, lab, metric)).as_dict()
+        # spread over method seeds inside a replicate (paper 002's question)
+        for d in docs:
+            for r, by_label in d["protocols"].get(prot.name, {}).get("seeds", {}).items():
+                for lab, ms in by_label.items():
+                    for metric in metrics.get(lab, ()):
+                        vals = [m[metric] for m in ms if isinstance(m, dict) and
+                                _is_num(m.get(metric))]
+                        if len(vals) > 1:
+                            seed_spread.setdefault(prot.name, {}).setdefault(r, {}).setdefault(
+                                lab, {}).setdefault(metric, []).append(float(np.std(vals, ddof=1)))
+    for prot in seed_spread.values():
+        for by_label in prot.values():
+            for by_metric in by_label.values():
+                for metric, sds in by_metric.items():
+                    by_metric[metric] = {"mean_std_over_seeds": float(np.mean(sds)),
+                                         "replicates": len(sds)}
+
+    series: dict = {}
+    for prot in plan.protocols:
+        for metric in SERIES_METRICS:
+            for lab in labels:
+                if metric in over_runs[prot.name].get(lab, {}):
+                    vals = _over_runs(docs, prot.name, runs_of[prot.name], lab, metric)
+                    series.setdefault(prot.name, {}).setdefault(metric, {})[lab] = \
+                        [None if not math.isfinite(v) else float(v) for v in vals]
+
+    claims = []
+    for c in plan.claims:
+        better_cls = None
+        spec = next((m for m in plan.methods if m.label == c.better), None)
+        if spec is not None:
+            better_cls = fogcomp.get_method(spec.name)
+        # the oracle removes the true deterministic error terms: a floor for a model of those
+        # terms (a supervised method), not for a filter that also removes noise
+        oracle_bounds = better_cls is not None and better_cls.supervised
+        for prot in plan.protocols:
+            runs = [r for r in runs_of[prot.name] if c.run is None or r == c.run]
+            if not runs:
+                continue
+            vals = _improvement(docs, prot.name, runs, c.better, c.than, c.metric)
+            if np.all(np.isnan(vals)) and not any(
+                    _is_num(d["protocols"].get(prot.name, {}).get("runs", {}).get(runs[0], {})
+                            .get(c.than, {}).get(c.metric)) for d in docs):
+                continue
+            ovals = _improvement(docs, prot.name, runs, "oracle", c.than, c.metric)
+            v = S.claim_verdict(vals, c.min_pct, c.max_pct,
+                                oracle=ovals if oracle_bounds else None, better="higher")
+            pair = S.paired_difference(_over_runs(docs, prot.name, runs, c.better, c.metric),
+                                       _over_runs(docs, prot.name, runs, c.than, c.metric),
+                                       better="higher" if c.metric.endswith("_pct") else "lower")
+            claims.append({"text": c.text, "source": c.source, "protocol": prot.name,
+                           "in_sample": prot.in_sample, "metric": c.metric, "better": c.better,
+                           "than": c.than, "runs": runs, "min_pct": c.min_pct,
+                           "max_pct": c.max_pct, **v.as_dict(),
+                           "oracle_improvement": S.summarize(ovals).as_dict(),
+                           "oracle_bounds_claim": oracle_bounds,
+                           "paired": pair.as_dict()})
+
+    rankings = []
+    groups: dict = {}
+    for pv in plan.paper:
+        if pv.segment is None:
+            groups.setdefault((pv.metric, pv.run), {})[pv.method] = pv.value
+    for (metric, run), theirs in groups.items():
+        if len(theirs) < 2:
+            continue
+        better = "higher" if metric.endswith("_pct") else "lower"
+        paper_order = sorted(theirs, key=theirs.get, reverse=(better == "higher"))
+        for prot in plan.protocols:
+            for r in [run] if run else runs_of[prot.name]:
+                if r not in runs_of[prot.name]:
+                    continue
+                vals = {lab: _series(docs, prot.name, r, lab, metric) for lab in theirs}
+                if all(np.all(np.isnan(v)) for v in vals.values()):
+                    continue
+                orders = S.ordering_probabilities(vals, better=better)
+                rankings.append({
+                    "protocol": prot.name, "run": r, "metric": metric,
+                    "paper_order": paper_order,
+                    "p_paper_order": S.ordering_probability(vals, paper_order, better=better),
+                    "orderings": [o.as_dict() for o in orders]})
+    return {"replicates": len(docs), "summary": summary, "over_runs": over_runs,
+            "seed_spread": seed_spread, "claims": claims, "rankings": rankings,
+            "series": series,
+            "interval": "95 % Student t-interval of the mean over replicates "
+                        "(fogbench.stats.summarize)"}
+
+
+def summary_digest(mc: dict) -> str:
+    """SHA-256 of the aggregate without anything that depends on the machine (for the
+    determinism law: serial, process pool and Dask must agree)."""
+    keep = {k: mc[k] for k in ("replicates", "summary", "over_runs", "seed_spread", "claims",
+                               "rankings", "series")}
+    return hashlib.sha256(json.dumps(_clean(keep), sort_keys=True).encode()).hexdigest()
+
+
+# ---------------------------------------------------------------------------------------------
+# Orchestration: one scenario's replicates on an executor
+class ScenarioMC:
+    """The replicates of one scenario: submit them, compute replicate 0 in full here, collect.
+
+    ``replicates`` and ``method_seeds`` override the file's ``[montecarlo]`` values.
+    """
+
+    def __init__(self, path, out: Path, replicates: int | None = None,
+                 method_seeds: int | None = None, methods: list[str] | None = None,
+                 resume: bool = False):
+        from .runner import scenario_seed
+        from .scenario import RUNNER_SECTIONS, load_plan, load_scenario
+
+        self.path = str(path)
+        self.sc = load_scenario(path, extra_sections=RUNNER_SECTIONS)
+        self.plan = load_plan(self.sc)
+        self.R = int(replicates or self.plan.replicates)
+        self.K = int(method_seeds or self.plan.method_seeds)
+        self.methods = methods
+        self.seed = scenario_seed(self.sc, self.plan)
+        self.work = WorkDir(out, self.sc, self.K, methods)
+        self.done = self.work.open(resume)
+        self.resumed = sorted(self.done)
+        self.todo = [r for r in range(1, self.R) if r not in self.done]
+        self.futures: dict = {}
+        self.failures: list[dict] = []
+        self.res0 = None
+        self.first_s = None
+
+    def submit(self, executor) -> None:
+        for r in self.todo:
+            fut = executor.submit(replicate_task, (self.path, r, self.K, self.methods))
+            self.futures[fut] = r
+
+    def run_first(self, say=None) -> None:
+        """Replicate 0 in full (arrays for the figures and the recording)."""
+        from .runner import run_scenario
+
+        t0 = time.perf_counter()
+        self.res0 = run_scenario(self.path, progress=say, methods=self.methods,
+                                 method_seeds=self.K, truths={})
+        self.first_s = time.perf_counter() - t0
+        doc = replicate_doc(self.res0, self.first_s)
+        if 0 in self.done and _digest_doc(self.done[0]) != _digest_doc(doc):
+            raise MonteCarloError(f"--resume: replicate 0 of {self.sc.name} does not reproduce "
+                                  "the stored one; the stored replicates were made by other "
+                                  "code. Run without --resume")
+        self.work.write(doc)
+        self.done[0] = doc
+
+    def collect(self, fut) -> bool:
+        """Store one finished replicate; False when it failed as a whole (counted, not fatal)."""
+        r = self.futures[fut]
+        try:
+            doc = fut.result()
+        except Exception as exc:  # a replicate that crashed is a failure, not the end of the run
+            self.failures.append({"replicate": r, "error": f"{type(exc).__name__}: {exc}"})
+            return False
+        self.work.write(doc)
+        self.done[r] = doc
+        return True
+
+    def finish(self, engine: str) -> dict:
+        docs = [self.done[r] for r in sorted(self.done)]
+        mc = aggregate(docs, self.sc, self.plan)
+        walls = [d["wall_s"] for d in docs if d["replicate"] > 0 and _is_num(d.get("wall_s"))]
+        med = float(np.median(walls)) if walls else None
+        mc.update({
+            "replicates_requested": self.R, "method_seeds": self.K, "seed": self.seed,
+            "engine": engine, "resumed_replicates": self.resumed,
+            "failed_replicates": self.failures,
+            "cost": {"first_run_s": self.first_s, "replicate_median_s": med,
+                     "replicate_over_first": (med / self.first_s) if med and self.first_s
+                     else None,
+                     "note": "first run: replicate 0 with the table simulated; a replicate: "
+                             "FOG draws, fits and scoring with the table's motion reused "
+                             "(wall times, this machine)"},
+        })
+        mc["digest"] = summary_digest(mc)
+        return mc
+
+
+def _digest_doc(doc: dict) -> str:
+    def strip(v):
+        if isinstance(v, dict):
+            return {k: strip(x) for k, x in v.items()
+                    if k not in TIMING_METRICS and k != "wall_s"}
+        if isinstance(v, list):
+            return [strip(x) for x in v]
+        return v
+
+    return hashlib.sha256(json.dumps(strip(_clean(doc)), sort_keys=True).encode()).hexdigest()

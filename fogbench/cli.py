@@ -142,6 +142,7 @@ def _cmd_run(args) -> int:
     engine = _engine(args) if mc.todo else contextlib.nullcontext(SerialExecutor())
     try:
         with engine as ex:
+            mc.simulate_truths(say)
             mc.submit(ex)
             mc.run_first(say)
             with Progress(len(mc.todo), f"{name}: replicates", quiet=args.quiet or not mc.todo,
@@ -150,10 +151,12 @@ def _cmd_run(args) -> int:
 
                 for fut in as_completed(mc.futures):
                     bar.advance(failed=not mc.collect(fut))
-    except (KeyboardInterrupt, Exception):
-        if len(mc.done) > 1 or mc.resumed:
+    except BaseException:
+        if mc.done:
             print(f"fogbench: {len(mc.done)} replicate(s) of {name} are kept in {mc.work.path}; "
                   "run again with --resume to go on", file=sys.stderr)
+        else:
+            mc.work.remove()  # nothing done: leave nothing behind
         raise
     doc = mc.finish(_engine_label(args) if mc.todo else "this process")
     write_run_dir(mc.res0, out, recording=not args.no_recording,
@@ -191,9 +194,12 @@ def _failed(doc) -> list[str]:
 def _cmd_suite(args) -> int:
     from .suite import run_suite
 
+    opts = _cluster_options(args.cluster_config) if args.cluster_config else None
     return run_suite(scenario_dir=Path(args.scenarios), out=Path(args.out), check=args.check,
                      jobs=args.jobs, only_ci=args.ci, recording=not args.no_recording,
-                     quiet=args.quiet, names=args.scenario)
+                     quiet=args.quiet, names=args.scenario, replicates=args.replicates,
+                     method_seeds=args.method_seeds, scheduler=args.scheduler,
+                     cluster=args.cluster, cluster_options=opts, resume=args.resume)
 
 
 def _cmd_view(args) -> int:
@@ -282,13 +288,14 @@ def build_parser() -> argparse.ArgumentParser:
     u.add_argument("--out", default="reports", help="reports folder (default reports)")
     u.add_argument("--check", action="store_true",
                    help="exit 1 when a metric leaves the bounds its scenario file declares")
-    u.add_argument("--jobs", type=_number(int, 1, hi=256), default=2,
-                   help="parallel processes (default 2)")
     u.add_argument("--ci", action="store_true",
                    help="only the scenarios marked ci = true (the CI subset)")
     u.add_argument("--scenario", action="append", help="only this scenario name (repeatable)")
     u.add_argument("--no-recording", action="store_true", help="do not write recordings")
     u.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    _mc_flags(u)
+    u.add_argument("--resume", action="store_true",
+                   help="keep the replicates a killed suite left and compute only the rest")
     u.set_defaults(func=_cmd_suite)
 
     v = sub.add_parser("view", help="open a run directory's recording in the Rerun viewer")

@@ -42,7 +42,6 @@ SERIES_METRICS = ("rmse_dph", "std_dps", "bias_stability_100s_dph", "drift_rms_d
                   "coef_rms_error_dph", "arw_deg_rt_h", "bias_instability_dph", "rrw_dph_rt_h",
                   "improvement_rmse_pct", "improvement_bias_stability_pct",
                   "improvement_drift_pct", "improvement_std_pct")
-_TRUTHS: dict = {}   # per process: (scenario file, digest) -> {run name: Truth}
 
 
 class MonteCarloError(ValueError):
@@ -56,15 +55,14 @@ def scenario_digest(text: str) -> str:
 # ---------------------------------------------------------------------------------------------
 # One replicate (runs on a worker)
 def replicate_task(task: tuple) -> dict:
-    """Worker: ``(scenario path, replicate r, method_seeds K, method labels or None)`` -> the
-    replicate's metrics (:func:`replicate_doc`). The table's motion is cached per process."""
+    """Worker: ``(scenario path, replicate r, method_seeds K, method labels or None, truths)``
+    -> the replicate's metrics (:func:`replicate_doc`). ``truths`` (run name -> ``Truth``) is
+    the table's motion, simulated once by the main process and reused by every replicate."""
     from .runner import run_scenario
 
-    path, r, k, methods = task
-    text = Path(path).read_bytes()
-    cache = _TRUTHS.setdefault((str(path), hashlib.sha256(text).hexdigest()), {})
+    path, r, k, methods, truths = task
     t0 = time.perf_counter()
-    res = run_scenario(path, replicate=r, method_seeds=k, methods=methods, truths=cache)
+    res = run_scenario(path, replicate=r, method_seeds=k, methods=methods, truths=dict(truths))
     return replicate_doc(res, time.perf_counter() - t0)
 
 
@@ -386,20 +384,38 @@ class ScenarioMC:
         self.failures: list[dict] = []
         self.res0 = None
         self.first_s = None
+        self.truths: dict = {}
+        self.truth_s = 0.0
+
+    def simulate_truths(self, say=None) -> None:
+        """The table's motion of every run, once (it is the same in every replicate)."""
+        from sim.rate_table import simulate_truth
+
+        t0 = time.perf_counter()
+        for i, run in enumerate(self.sc.runs):
+            if say:
+                say(f"simulate the table for {run.name} ({i + 1}/{len(self.sc.runs)}, "
+                    f"{run.duration:g} s)")
+            self.truths[run.name] = simulate_truth(run.motion, self.sc.fs, self.sc.table,
+                                                   tilt0=run.tilt0)
+        self.truth_s = time.perf_counter() - t0
 
     def submit(self, executor) -> None:
         for r in self.todo:
-            fut = executor.submit(replicate_task, (self.path, r, self.K, self.methods))
+            fut = executor.submit(replicate_task,
+                                  (self.path, r, self.K, self.methods, self.truths))
             self.futures[fut] = r
 
     def run_first(self, say=None) -> None:
         """Replicate 0 in full (arrays for the figures and the recording)."""
         from .runner import run_scenario
 
+        if not self.truths:
+            self.simulate_truths(say)
         t0 = time.perf_counter()
         self.res0 = run_scenario(self.path, progress=say, methods=self.methods,
-                                 method_seeds=self.K, truths={})
-        self.first_s = time.perf_counter() - t0
+                                 method_seeds=self.K, truths=dict(self.truths))
+        self.first_s = time.perf_counter() - t0 + self.truth_s
         doc = replicate_doc(self.res0, self.first_s)
         if 0 in self.done and _digest_doc(self.done[0]) != _digest_doc(doc):
             raise MonteCarloError(f"--resume: replicate 0 of {self.sc.name} does not reproduce "

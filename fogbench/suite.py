@@ -2,17 +2,21 @@
 
 from __future__ import annotations
 
+import contextlib
 import math
-import os
 import sys
 import time
 import traceback
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import as_completed
 from pathlib import Path
 
-from .io import atomic_write_text
-from .outdir import OutDirError, Terminated, check_out_dir
+from .executor import SerialExecutor, engine_label, make_executor
 from .fmt import fmt
+from .io import atomic_write_text
+from .montecarlo import MonteCarloError, ScenarioMC
+from .outdir import OutDirError, check_out_dir
+from .progress import Progress
+from .report import write_run_dir
 from .scenario import RUNNER_SECTIONS, ScenarioError, load_plan, load_scenario
 
 __all__ = ["run_suite", "check_bounds", "summary_markdown"]
@@ -22,32 +26,25 @@ SUMMARY_METRICS = ("std_dps", "rmse_dph", "drift_rms_dph", "bias_stability_100s_
                    "fit_time_s")
 
 
-def _one(path: str, out: str, recording: bool, quiet: bool) -> dict:
-    """Worker: run one scenario and write its directory. Returns a small status record."""
-    from .report import write_run_dir
-    from .runner import run_scenario
-
-    name = Path(path).stem
-    say = (lambda msg: None) if quiet else (
-        lambda msg: print(f"[{name}] {msg}", file=sys.stderr, flush=True))
-    t0 = time.monotonic()
-    try:
-        res = run_scenario(path, progress=say)
-        write_run_dir(res, Path(out) / res.scenario.name, recording=recording)
-        return {"path": path, "name": res.scenario.name, "ok": True, "metrics": res.metrics,
-                "wall_s": time.monotonic() - t0}
-    except Exception as exc:  # a broken scenario is reported; the suite goes on
-        return {"path": path, "name": name, "ok": False, "wall_s": time.monotonic() - t0,
-                "error": f"{type(exc).__name__}: {exc}", "traceback": traceback.format_exc()}
-    except Terminated:
-        # the main process is ending the suite: temporary folders are already removed by the
-        # unwinding; leave now rather than wait for the pool's next task
-        if _IN_WORKER:
-            os._exit(143)
-        raise
-
-
 def _values(doc: dict, protocol: str, method: str, metric: str, run: str | None):
+    """(run, value, why-missing) of a metric: the mean over replicates when there are several."""
+    mc = doc.get("montecarlo")
+    if mc:
+        for rname, by_label in mc["summary"].get(protocol, {}).items():
+            if run is not None and rname != run:
+                continue
+            sm = by_label.get(method, {}).get(metric)
+            if sm is None:
+                yield rname, None, ("method not scored" if method not in by_label else
+                                    "metric not computed")
+            elif not sm.get("n"):
+                yield rname, None, "failed in every replicate" if sm.get("n_failed") else \
+                    "metric not computed"
+            elif sm.get("n_failed"):
+                yield rname, None, f"failed in {sm['n_failed']} replicate(s)"
+            else:
+                yield rname, sm["mean"], None
+        return
     prot = doc["protocols"].get(protocol, {})
     for rname, by_method in prot.get("runs", {}).items():
         if run is not None and rname != run:
@@ -157,53 +154,85 @@ def claim_verdicts(plan, doc) -> list[str]:
 
 
 def summary_markdown(results: list[dict], plans: dict, out: Path, violations: list[str]) -> str:
-    import datetime
+    """The suite's summary: per scenario and protocol, every method's key metrics as mean and
+    interval over replicates, the claims' verdicts and the rankings. Nothing in it depends on
+    the machine or the day (no dates, no wall times), so a re-run leaves it unchanged."""
+    from .report import _ci_text
 
-    from .io import versions
-
-    v = versions()
     L = [SUMMARY_TITLE, "",
-         f"Written by `fogbench suite` (`make run`) on {datetime.date.today().isoformat()} with "
-         f"fogbench {v['fogbench']}, mujoco {v['mujoco']}, numpy {v['numpy']}; the scenario "
-         "reports it links (`<scenario>/report.md`, figures, `metrics.json`, `recording.rrd`) are "
-         "written beside it by the same command and are not kept in git.", "",
+         "Written by `fogbench suite` (`make run`); the scenario reports it links "
+         "(`<scenario>/report.md`, figures, `metrics.json`, `recording.rrd`) are written beside "
+         "it by the same command.", "",
          "Each scenario's methods were fitted on some runs and scored on others against the "
-         "simulation's truth (see each report for the protocol). Rows `raw` (the FOG output) and "
-         "`oracle` (raw minus the true deterministic error terms) bracket what compensation can "
-         "do. Values are means over the scored runs of a protocol; metric units are in the names "
-         "(`_dps` deg/s, `_dph` deg/h, `_deg` deg, `_pct` percent improvement over raw, `_s` "
-         "seconds). In-sample protocols (a paper's own, scored on fitted data) are flagged.", ""]
+         "simulation's truth (see each report for the protocol), over R replicates (power-ons "
+         "and method starts drawn anew). Values: mean [95 % t-interval of the mean] over "
+         "replicates of the mean over a protocol's scored runs. Rows `raw` (the FOG output) and "
+         "`oracle` (raw minus the true deterministic error terms) bracket what compensation of "
+         "those terms can do. Units are in the metric names (`_dps` deg/s, `_dph` deg/h, `_deg` "
+         "deg, `_pct` percent improvement over raw). In-sample protocols (a paper's own, scored "
+         "on fitted data) are flagged.", ""]
     for r in sorted(results, key=lambda r: r["name"]):
         name = r["name"]
         if not r["ok"]:
             L += [f"## {name}: FAILED", "", "```", r["error"], "```", ""]
             continue
         doc, plan = r["metrics"], plans[name]
+        mc = doc.get("montecarlo")
+        R = mc["replicates"] if mc else 1
         L += [f"## [{name}]({name}/report.md)", "", doc["description"], "",
-              f"Wall time {r['wall_s']:.1f} s.", ""]
+              f"{R} replicate(s)" + (f", {mc['method_seeds']} method seed(s) per fit"
+                                     if mc and mc["method_seeds"] > 1 else "") + ".", ""]
         for pname, pd in doc["protocols"].items():
-            labels = []
-            for by_method in pd["runs"].values():
-                for lab in by_method:
-                    if lab not in labels:
-                        labels.append(lab)
-            metrics = [m for m in SUMMARY_METRICS if any(
-                isinstance(_mean_over_runs(pd, lab, m), float) for lab in labels)]
             flag = " (IN-SAMPLE, the paper's protocol)" if pd["in_sample"] else " (held out)"
             L += [f"**Protocol `{pname}`{flag}**, scored on {', '.join(pd['runs'])}:", ""]
+            if mc:
+                po = mc["over_runs"].get(pname, {})
+                metrics = [m for m in SUMMARY_METRICS if m != "fit_time_s" and any(
+                    m in po.get(lab, {}) for lab in po)]
+                rows = [[lab] + [_ci_text(po[lab].get(m), m) for m in metrics] for lab in po]
+            else:
+                labels = []
+                for by_method in pd["runs"].values():
+                    for lab in by_method:
+                        if lab not in labels:
+                            labels.append(lab)
+                metrics = [m for m in SUMMARY_METRICS if m != "fit_time_s" and any(
+                    isinstance(_mean_over_runs(pd, lab, m), float) for lab in labels)]
+                rows = [[lab] + [fmt(_mean_over_runs(pd, lab, m), m) for m in metrics]
+                        for lab in labels]
             L += ["| method | " + " | ".join(metrics) + " |", "|---|" + "---|" * len(metrics)]
-            for lab in labels:
-                cells = [fmt(_mean_over_runs(pd, lab, m), m) for m in metrics]
-                L.append(f"| {lab} | " + " | ".join(cells) + " |")
-            L.append("")
-        verdicts = claim_verdicts(plan, doc)
-        if verdicts:
-            L += ["Claims:", ""] + [f"- {v}" for v in verdicts] + [""]
-        claims = _claims(plan, doc)
-        if claims:
-            srcs = sorted({pv.source.split(",")[0] for pv in plan.paper})
-            L += [f"Against the reference figures ({'; '.join(srcs)}):", ""] + \
-                 [f"- {c}" for c in claims] + [""]
+            L += ["| " + " | ".join(row) + " |" for row in rows] + [""]
+        if mc:
+            if mc["claims"]:
+                L += ["Claims:", ""]
+                for c in mc["claims"]:
+                    lo = "" if c["min_pct"] is None else f"{c['min_pct']:g}"
+                    hi = "" if c["max_pct"] is None else f"{c['max_pct']:g}"
+                    tag = " (in-sample)" if c["in_sample"] else ""
+                    held = "–" if c["held"] is None else f"{100 * c['held']:.0f} %"
+                    L.append(f"- {c['source']}: \"{c['text']}\" — `{c['protocol']}`{tag}: "
+                             f"{c['better']} vs {c['than']} on {c['metric']}: "
+                             f"{_ci_text(c['summary'], '_pct')} % (claim {lo}..{hi} %): "
+                             f"**{c['verdict']}** (held in {held} of replicates; oracle "
+                             f"{_ci_text(c['oracle_improvement'], '_pct')} %"
+                             + ("" if c["oracle_bounds_claim"] else ", not a bound for a filter")
+                             + ").")
+                L.append("")
+            if mc["rankings"]:
+                L += ["Rankings against the paper's table:", ""]
+                for rk in mc["rankings"]:
+                    top = rk["orderings"][0] if rk["orderings"] else None
+                    L.append(f"- `{rk['protocol']}`, {rk['run']}, {rk['metric']}: the paper's "
+                             f"order {' < '.join(rk['paper_order'])} in "
+                             f"{100 * rk['p_paper_order']:.0f} % of replicates"
+                             + (f"; most frequent {top['ordering']} "
+                                f"({100 * top['probability']:.0f} %)" if top else "") + ".")
+                L.append("")
+        else:
+            verdicts = claim_verdicts(plan, doc)
+            if verdicts:
+                L += ["Claims (one replicate: no interval):", ""] + [f"- {v}" for v in verdicts]
+                L.append("")
         for note in plan.notes:
             L += [f"> {note}", ""]
     L += ["## Bounds check", ""]
@@ -214,34 +243,6 @@ def summary_markdown(results: list[dict], plans: dict, out: Path, violations: li
 
 
 SUMMARY_TITLE = "# fogbench suite: summary"
-_IN_WORKER = False
-
-
-def _worker_init() -> None:
-    """In a worker: Ctrl-C is the main process's to handle (no tracebacks from every worker);
-    SIGTERM (sent by the main process when interrupted) unwinds so temporary folders go."""
-    import signal
-
-    from .outdir import install_sigterm
-
-    global _IN_WORKER
-    _IN_WORKER = True
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    install_sigterm()
-
-
-def _stop_pool(pool: ProcessPoolExecutor) -> None:
-    """Cancel what has not started and end the workers now (SIGTERM, then SIGKILL)."""
-    procs = list((getattr(pool, "_processes", None) or {}).values())  # no public handle
-    pool.shutdown(wait=False, cancel_futures=True)
-    for proc in procs:
-        if proc.is_alive():
-            proc.terminate()
-    for proc in procs:
-        proc.join(timeout=10)
-        if proc.is_alive():
-            proc.kill()
-            proc.join(timeout=5)
 
 
 def _summary_path(out: Path, partial: bool) -> Path:
@@ -258,9 +259,14 @@ def _summary_path(out: Path, partial: bool) -> Path:
     return readme
 
 
-def run_suite(scenario_dir: Path, out: Path, check: bool = False, jobs: int = 2,
+def run_suite(scenario_dir: Path, out: Path, check: bool = False, jobs: int | None = None,
               only_ci: bool = False, recording: bool = True, quiet: bool = False,
-              names: list[str] | None = None) -> int:
+              names: list[str] | None = None, replicates: int | None = None,
+              method_seeds: int | None = None, scheduler: str | None = None,
+              cluster: str | None = None, cluster_options: dict | None = None,
+              resume: bool = False) -> int:
+    """Run every scenario of ``scenario_dir`` with its replicates on one executor and write
+    ``out/<scenario>/`` and the summary ``out/README.md``. Returns the exit status."""
     scenario_dir = Path(scenario_dir)
     if not scenario_dir.is_dir():
         raise OutDirError(f"--scenarios {scenario_dir}: not a folder")
@@ -310,23 +316,55 @@ def run_suite(scenario_dir: Path, out: Path, check: bool = False, jobs: int = 2,
     for name in plans:
         check_out_dir(Path(out) / name, "run", flag=f"--out {out}: folder {name}")
     t0 = time.monotonic()
-    if not quiet:
-        print(f"fogbench suite: {len(chosen)} scenario(s), {jobs} process(es)", file=sys.stderr)
-    if jobs <= 1 or len(chosen) <= 1:
-        for p in chosen:
-            results.append(_one(p, str(out), recording, quiet))
-            _report_done(results[-1], quiet)
-    else:
-        pool = ProcessPoolExecutor(max_workers=jobs, initializer=_worker_init)
+    mcs: dict = {}
+    for p in chosen:
+        name = next(n for n, f in first_file.items() if str(f) == p)
         try:
-            futs = [pool.submit(_one, p, str(out), recording, quiet) for p in chosen]
-            for f in as_completed(futs):
-                results.append(f.result())
-                _report_done(results[-1], quiet)
-        except BaseException:
-            _stop_pool(pool)
-            raise
-        pool.shutdown(wait=True)
+            mcs[name] = ScenarioMC(p, Path(out) / name, replicates=replicates,
+                                   method_seeds=method_seeds, resume=resume)
+        except (MonteCarloError, OutDirError) as exc:
+            results.append({"path": p, "name": name, "ok": False, "wall_s": 0.0,
+                            "error": str(exc)})
+    total = sum(len(m.todo) + 1 for m in mcs.values())
+    if not quiet:
+        print(f"fogbench suite: {len(mcs)} scenario(s), "
+              f"{total} replicate(s) in all, on {engine_label(jobs, scheduler, cluster)}",
+              file=sys.stderr)
+    need_pool = any(m.todo for m in mcs.values())
+    engine = make_executor(jobs=jobs, scheduler=scheduler, cluster=cluster,
+                           cluster_options=cluster_options) if need_pool else \
+        contextlib.nullcontext(SerialExecutor())
+    with engine as ex, Progress(total, "suite", quiet=quiet) as bar:
+        for name, m in mcs.items():
+            try:
+                m.simulate_truths(None if quiet else (
+                    lambda msg, _n=name: print(f"[{_n}] {msg}", file=sys.stderr, flush=True)))
+            except Exception:  # reported when its replicate 0 runs (and fails the same way)
+                continue
+            m.submit(ex)
+        for name, m in mcs.items():
+            t1 = time.monotonic()
+            say = (lambda msg, _n=name: None) if quiet else (
+                lambda msg, _n=name: print(f"[{_n}] {msg}", file=sys.stderr, flush=True))
+            try:
+                m.run_first(say)
+                bar.advance()
+                for fut in as_completed(m.futures):
+                    bar.advance(failed=not m.collect(fut))
+                doc = m.finish(engine_label(jobs, scheduler, cluster) if need_pool
+                               else "this process")
+                write_run_dir(m.res0, Path(out) / name, recording=recording,
+                              montecarlo=doc if m.R > 1 else None, work=m.work)
+                metrics = {**m.res0.metrics, **({"montecarlo": doc} if m.R > 1 else {})}
+                results.append({"path": m.path, "name": name, "ok": True, "metrics": metrics,
+                                "wall_s": time.monotonic() - t1})
+            except Exception as exc:  # a broken scenario is reported; the suite goes on
+                results.append({"path": m.path, "name": name, "ok": False,
+                                "wall_s": time.monotonic() - t1,
+                                "error": f"{type(exc).__name__}: {exc}",
+                                "traceback": traceback.format_exc()})
+            m.res0 = None  # its arrays are written; free them before the next scenario
+            _report_done(results[-1], quiet)
     violations = []
     for r in results:
         if r["ok"]:

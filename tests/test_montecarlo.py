@@ -1,0 +1,239 @@
+"""Monte Carlo over replicates (issue 10): a replicate's numbers depend only on the scenario and
+its index (never on the engine, the number of workers, the order, or what ran before), the work
+is resumable, failures are counted, and the aggregate states its intervals and verdicts."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import signal
+from concurrent.futures import as_completed
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fogbench.cli import main
+from fogbench.executor import SerialExecutor, make_executor
+from fogbench.montecarlo import MonteCarloError, ScenarioMC, replicate_task
+
+SCENARIO = """
+[scenario]
+name = "mc_tiny"
+sample_rate_hz = 10.0
+
+[fog]
+preset = "tactical"
+switch_on_bias_dph = 5.0
+temp_coeff_dph_per_c = 0.5
+
+[thermal]
+start_c = 10.0
+[[thermal.steps]]
+ramp_to_c = 30.0
+rate_c_per_min = 10.0
+
+[[runs]]
+name = "a"
+seed = 11
+[[runs.motion]]
+type = "hold"
+duration_s = 150.0
+
+[[runs]]
+name = "b"
+seed = 12
+[[runs.motion]]
+type = "rate"
+rate_dps = 10.0
+duration_s = 150.0
+
+[[protocols]]
+name = "own_run"
+fit = [{ run = "*", end_s = 75.0 }]
+score = [{ run = "*", start_s = 75.0 }]
+
+[[methods]]
+name = "bp"
+params = { max_epochs = 60 }
+
+[[methods]]
+name = "poly_temp"
+
+[[claims]]
+text = "poly_temp removes all of the error"
+source = "a test"
+metric = "rmse_dph"
+better = "poly_temp"
+than = "raw"
+min_pct = 99.99
+
+[montecarlo]
+replicates = 4
+"""
+
+
+@pytest.fixture
+def scn(tmp_path):
+    p = tmp_path / "mc_tiny.toml"
+    p.write_text(SCENARIO)
+    return p
+
+
+def run_mc(path, out, executor_cm, **kw):
+    mc = ScenarioMC(path, out, **kw)
+    with executor_cm as ex:
+        mc.simulate_truths()
+        mc.submit(ex)
+        mc.run_first()
+        for fut in as_completed(mc.futures):
+            assert mc.collect(fut)
+    return mc, mc.finish("test")
+
+
+def test_aggregate_is_identical_serial_two_processes_and_dask(scn, tmp_path):
+    """The determinism law: one SHA-256 of the aggregate for every engine."""
+    distributed = pytest.importorskip("distributed")
+    digests = {}
+    _, mc = run_mc(scn, tmp_path / "serial", make_executor(jobs=1))
+    digests["serial"] = mc["digest"]
+    _, mc = run_mc(scn, tmp_path / "procs", make_executor(jobs=2))
+    digests["2 processes"] = mc["digest"]
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster:
+        _, mc = run_mc(scn, tmp_path / "dask", make_executor(scheduler=cluster.scheduler_address))
+        digests["dask"] = mc["digest"]
+    assert len(set(digests.values())) == 1, digests
+    assert mc["replicates"] == 4
+
+
+def test_a_replicate_depends_only_on_its_index(scn, tmp_path):
+    """Replicate 3 computed alone, first, equals replicate 3 of a whole run; replicates differ."""
+    mc, _ = run_mc(scn, tmp_path / "all", contextlib.nullcontext(SerialExecutor()))
+    alone = replicate_task((str(scn), 3, 1, None, {}))  # no cached table motion either
+    whole = mc.done[3]
+
+    def metric(doc, r):
+        return doc["protocols"]["own_run"]["runs"][r]["raw"]["rmse_dph"]
+
+    assert metric(alone, "a") == metric(whole, "a") and metric(alone, "b") == metric(whole, "b")
+    assert alone["protocols"]["own_run"]["runs"]["a"]["bp"]["rmse_dph"] == \
+        whole["protocols"]["own_run"]["runs"]["a"]["bp"]["rmse_dph"]
+    assert len({metric(mc.done[r], "a") for r in range(4)}) == 4  # new draws per replicate
+
+
+def test_resume_skips_completed_replicates_and_gives_the_same_aggregate(scn, tmp_path):
+    _, full = run_mc(scn, tmp_path / "full", make_executor(jobs=1))
+    # a killed run: replicates 0 and 2 were written, 1 and 3 were in flight
+    out = tmp_path / "killed"
+    first = ScenarioMC(scn, out)
+    first.run_first()
+    first.work.write(replicate_task((str(scn), 2, 1, None, {})))
+    again = ScenarioMC(scn, out, resume=True)
+    assert again.todo == [1, 3] and again.resumed == [0, 2]
+    _, mc = run_mc(scn, out, make_executor(jobs=1), resume=True)
+    assert mc["digest"] == full["digest"]
+    # an edited scenario is refused, naming the mismatch
+    scn.write_text(scn.read_text().replace("seed = 12", "seed = 13"))
+    with pytest.raises(MonteCarloError, match="another scenario file"):
+        ScenarioMC(scn, out, resume=True)
+
+
+def test_claim_beyond_the_oracle_is_untestable_and_intervals_are_stated(scn, tmp_path):
+    _, mc = run_mc(scn, tmp_path / "o", make_executor(jobs=1))
+    (claim,) = mc["claims"]
+    # poly_temp is a model of deterministic terms: the oracle bounds it; noise stays, so
+    # removing 99.99 % of the RMS error is more than the oracle can give
+    assert claim["oracle_bounds_claim"] is True
+    assert claim["oracle_improvement"]["ci_high"] < 99.99
+    assert claim["verdict"] == "untestable"
+    sm = mc["over_runs"]["own_run"]["raw"]["rmse_dph"]
+    vals = np.array([v for v in mc["series"]["own_run"]["rmse_dph"]["raw"]])
+    assert sm["n"] == 4 and np.isclose(sm["mean"], vals.mean())
+    from scipy import stats
+
+    half = stats.t.ppf(0.975, 3) * vals.std(ddof=1) / 2
+    assert np.isclose(sm["ci_high"] - sm["mean"], half)
+
+
+def test_a_failing_method_counts_as_failures_not_the_end(scn, tmp_path, monkeypatch):
+    """A method that fails in some replicates: its failure rate is reported, the rest goes on."""
+    import fogcomp
+    from fogcomp.methods.temperature import PolyTemp
+
+    real_fit = PolyTemp._fit
+
+    def flaky(self, data, error):
+        if abs(float(np.mean(data.rate))) % 2e-6 < 1e-6:  # data-dependent: some replicates
+            raise fogcomp.DivergenceError("flaky on purpose")
+        return real_fit(self, data, error)
+
+    monkeypatch.setattr(PolyTemp, "_fit", flaky)
+    _, mc = run_mc(scn, tmp_path / "f", make_executor(jobs=1))
+    sm = mc["over_runs"]["own_run"]["poly_temp"]["rmse_dph"]
+    assert sm["n"] + sm["n_failed"] == 4 and 0 < sm["n_failed"] < 4
+    assert sm["failure_rate"] == sm["n_failed"] / 4
+    assert mc["over_runs"]["own_run"]["bp"]["rmse_dph"]["n"] == 4
+
+
+def _cli(*args):
+    err = io.StringIO()
+    handler = signal.getsignal(signal.SIGTERM)
+    try:
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+            try:
+                code = main([str(a) for a in args])
+            except SystemExit as exc:
+                code = exc.code
+    finally:
+        signal.signal(signal.SIGTERM, handler)
+    return code, err.getvalue()
+
+
+def test_run_writes_replicates_and_the_aggregate(scn, tmp_path):
+    out = tmp_path / "run"
+    code, err = _cli("run", scn, "--out", out, "--replicates", 3, "--jobs", 1, "--quiet",
+                     "--no-recording")
+    assert code == 0, err
+    doc = json.loads((out / "metrics.json").read_text())
+    assert doc["montecarlo"]["replicates"] == 3
+    assert sorted(p.name for p in (out / "replicates").glob("r*.json")) == \
+        ["r00000.json", "r00001.json", "r00002.json"]
+    assert not (tmp_path / ".run.replicates").exists()
+    report = (out / "report.md").read_text()
+    assert "## Over 3 replicates" in report and "**untestable**" in report
+    # one replicate: today's single run, no Monte Carlo section
+    code, err = _cli("run", scn, "--out", tmp_path / "one", "--replicates", 1, "--quiet",
+                     "--no-recording")
+    assert code == 0, err
+    assert "montecarlo" not in json.loads((tmp_path / "one" / "metrics.json").read_text())
+
+
+@pytest.mark.parametrize("args,words", [
+    (["--replicates", "0"], ["--replicates", ">= 1"]),
+    (["--replicates", "two"], ["--replicates", "integer"]),
+    (["--method-seeds", "-1"], ["--method-seeds"]),
+    (["--jobs", "0"], ["--jobs"]),
+    (["--scheduler", "tcp://127.0.0.1:9", "--replicates", "3"], ["tcp://127.0.0.1:9"]),
+    (["--scheduler", "http://x"], ["scheduler"]),
+    (["--resume"], ["--resume", "nothing to resume"]),
+])
+def test_bad_monte_carlo_input_is_one_line_exit_2_nothing_written(scn, tmp_path, args, words):
+    out = tmp_path / "o"
+    code, err = _cli("run", scn, "--out", out, "--quiet", "--no-recording", *args)
+    assert code == 2, err
+    last = err.strip().splitlines()[-1]  # argparse prints its usage above the error line
+    assert "error" in last and "Traceback" not in err
+    for w in words:
+        assert w in last, err
+    assert not out.exists() and sorted(p.name for p in tmp_path.iterdir()) == ["mc_tiny.toml"]
+
+
+@pytest.mark.parametrize("bad,words", [("replicates = 0", "replicates"),
+                                       ("replicates = 2.5", "integer"),
+                                       ("method_seeds = 0", "method_seeds")])
+def test_bad_montecarlo_table_is_refused_at_load(scn, bad, words):
+    scn.write_text(scn.read_text().replace("replicates = 4", bad))
+    code, err = _cli("check", scn)
+    assert code == 2 and "[montecarlo]" in err and words in err and str(scn) in err

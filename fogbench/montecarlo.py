@@ -392,12 +392,17 @@ class ScenarioMC:
         from sim.rate_table import simulate_truth
 
         t0 = time.perf_counter()
+        same: dict = {}  # power-ons with one motion program share one simulation of the table
         for i, run in enumerate(self.sc.runs):
+            key = (run.motion, run.tilt0)
+            if key in same:
+                self.truths[run.name] = same[key]
+                continue
             if say:
                 say(f"simulate the table for {run.name} ({i + 1}/{len(self.sc.runs)}, "
                     f"{run.duration:g} s)")
-            self.truths[run.name] = simulate_truth(run.motion, self.sc.fs, self.sc.table,
-                                                   tilt0=run.tilt0)
+            self.truths[run.name] = same[key] = simulate_truth(
+                run.motion, self.sc.fs, self.sc.table, tilt0=run.tilt0)
         self.truth_s = time.perf_counter() - t0
 
     def submit(self, executor) -> None:

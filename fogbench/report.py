@@ -284,10 +284,10 @@ def fig_thermal(res: ScenarioResult, run: str, path: Path) -> bool:
     ax = axes[0]
     ax.plot(th_h, th.chamber, color="tab:blue", lw=1.4, label="chamber")
     if th.housing is not None and not np.array_equal(th.housing, th.chamber):
-        ax.plot(th_h, th.housing, color="tab:purple", lw=1.2, label="housing")
+        ax.plot(th_h, th.housing, color="tab:purple", lw=2.6, alpha=0.6, label="housing")
     ax.plot(th_h, th.coil, color="tab:orange", lw=1.6, label="coil (true)")
     if th.sensor is not None and not np.array_equal(th.sensor, th.coil):
-        ax.plot(th_h, th.sensor, color="black", lw=0.6, ls=":", label="sensor reading")
+        ax.plot(th_h, th.sensor, color="black", lw=0.8, ls=":", label="sensor reading")
     ax.set_ylabel("temperature, deg C")
     ax2 = ax.twinx()
     ax2.plot(th_h, th.coil_rate * 60, color="tab:red", lw=0.8, label="coil dT/dt (right axis)")

@@ -282,3 +282,28 @@ def test_unidentified_coefficients_are_hatched_clipped_and_labelled(figs, tmp_pa
     title = ax.get_title()
     assert "fit" in title and "test" in title and "first power-on" not in title
     assert _plotted_labels(fig) <= _legend_texts(fig)
+
+
+def test_raw_segment_bias_stability_equals_a_slow_twin_of_paper002_eq5():
+    """Paper 002 eq. 5 by hand: the sample standard deviation of the 100 s means of each
+    thermal segment (incomplete last block dropped)."""
+    from fogbench.runner import thermal_segments
+
+    res = _thermal_res()
+    rd = res.data["r1"]
+    got = R.raw_segment_stability(rd, 0)
+    segs = thermal_segments(rd)
+    assert [g[0] for g in got] == [s[0] for s in segs] == ["hold 20 C", "ramp 20..40 C",
+                                                            "hold 40 C"]
+    x = list(rd.fog.raw[:, 0])
+    for (name, v), (_, a, b) in zip(got, segs):
+        i0, i1 = int(round(a * rd.fs)), int(round(b * rd.fs))
+        k = int(round(100.0 * rd.fs))
+        means = []
+        i = i0
+        while i + k <= i1:
+            means.append(sum(x[i:i + k]) / k)
+            i += k
+        m = sum(means) / len(means)
+        twin = math.sqrt(sum((f - m) ** 2 for f in means) / (len(means) - 1)) / DPH
+        assert v == pytest.approx(twin, rel=1e-9), name

@@ -307,3 +307,71 @@ def test_raw_segment_bias_stability_equals_a_slow_twin_of_paper002_eq5():
         m = sum(means) / len(means)
         twin = math.sqrt(sum((f - m) ** 2 for f in means) / (len(means) - 1)) / DPH
         assert v == pytest.approx(twin, rel=1e-9), name
+
+
+SIM_SCENARIO = """
+[scenario]
+name = "io_tiny"
+description = "fogbench simulate output: saturation flags and the temperature sensor"
+sample_rate_hz = 20.0
+
+[table]
+latitude_deg = 45.0
+
+[fog]
+preset = "low_grade"
+axes = ["z"]
+range_dps = 100.0
+temp_sensor_location = "housing"
+temp_sensor_time_constant_s = 2.0
+temp_sensor_noise_c = 0.05
+temp_sensor_resolution_c = 0.0625
+housing_time_constant_s = 3.0
+
+[thermal]
+start_c = 20.0
+[[thermal.steps]]
+ramp_to_c = 23.0
+rate_c_per_min = 30.0
+
+[[runs]]
+name = "spin"
+seed = 5
+[[runs.motion]]
+type = "rate"
+rate_dps = 60.0
+duration_s = 4.0
+[[runs.motion]]
+type = "rate"
+rate_dps = 150.0
+duration_s = 4.0
+"""
+
+
+def test_simulate_writes_saturation_flags_and_the_sensor_columns(tmp_path):
+    """`fogbench simulate`: ``saturated`` (n, a) bool is set exactly where the true rate is
+    beyond the 100 deg/s range; the sensor reading is quantised to its 0.0625 C step and lags
+    the true coil; the documented columns are all there."""
+    from fogbench.cli import main
+    from fogbench.io import read_run
+
+    scn = tmp_path / "io_tiny.toml"
+    scn.write_text(SIM_SCENARIO)
+    out = tmp_path / "sim"
+    assert main(["simulate", str(scn), "--out", str(out), "--quiet"]) == 0
+    a = read_run(out / "spin.npz")
+    n = a["t_s"].size
+    for key in ("chamber_c", "coil_c", "housing_c", "coil_rate_c_per_s", "sensor_c",
+                "sensor_rate_c_per_s"):
+        assert a[key].shape == (n,), key
+    assert a["saturated"].shape == (n, 1) and a["saturated"].dtype == bool
+    beyond = np.abs(a["truth_rate_rps"][:, 2]) > 100.0 * DPS
+    # the spin goes from 60 to 150 deg/s: some samples are beyond the range, some within
+    assert beyond.any() and (~beyond).any()
+    # flagged exactly where the true rate is clearly beyond (a margin for the noise)
+    clear = np.abs(np.abs(a["truth_rate_rps"][:, 2]) - 100.0 * DPS) > 5.0 * DPS
+    np.testing.assert_array_equal(a["saturated"][clear, 0], beyond[clear])
+    assert np.all(np.abs(a["raw_rps"][a["saturated"][:, 0], 0]) <= 100.0 * DPS * (1 + 1e-12))
+    steps = a["sensor_c"] / 0.0625
+    np.testing.assert_allclose(steps, np.round(steps), atol=1e-9)
+    assert not np.array_equal(a["sensor_c"], a["coil_c"])

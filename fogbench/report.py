@@ -195,7 +195,7 @@ def fig_dwells(it, path: Path) -> None:
         dx = (i - (len(labels) - 1) / 2) * width
         kw = dict(color=sty[lab]["color"], zorder=sty[lab]["zorder"], ms=4, capsize=2,
                   elinewidth=0.8, ls="none",
-                  marker="o" if lab not in ("raw", "oracle") else ("s" if lab == "oracle" else "D"),
+                  marker={"raw": "D", "oracle": "s"}.get(lab, "o"),
                   mfc="none" if lab == "raw" else sty[lab]["color"])
         if lab != "oracle":
             axes[0].errorbar(x + dx, mean / DPH, yerr=sem / DPH, label=lab, **kw)

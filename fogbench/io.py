@@ -22,13 +22,22 @@ turn_rate_cmd_rps              (n,)       turntable rate command
 fog_quat, tilt_quat,           (n, 4)     orientations in the world frame (w, x, y, z)
 turntable_quat
 fog_pos_m                      (n, 3)     FOG site position
-chamber_c, coil_c              (n,)       chamber and coil temperature, deg C
-coil_rate_c_per_s              (n,)       coil dT/dt, deg C/s
+chamber_c, coil_c              (n,)       chamber and (true) coil temperature, deg C
+housing_c                      (n,)       FOG housing temperature, deg C (the chamber's
+                                          when the device has no housing lag)
+coil_rate_c_per_s              (n,)       true coil dT/dt, deg C/s
+sensor_c                       (n,)       the temperature sensor's reading (lag, noise,
+                                          quantisation; held between readings), deg C
+sensor_rate_c_per_s            (n,)       dT/dt differenced from the readings, deg C/s
 raw_rps                        (n, a)     FOG output (angle increment / interval), rad/s
+saturated                      (n, a)     bool: the rate was beyond the measurement range
+                                          and the output clipped (all False without a range)
 term_<name>_rps                (n, a)     each error term's contribution, rad/s
 =============================  =========  ===============================================
 
-``raw_rps = truth_rate_rps[:, axes] + sum of term_*_rps``.
+``raw_rps = truth_rate_rps[:, axes] + sum of term_*_rps`` (with saturation, the ``saturation``
+term is the clipped minus the unclipped sum). The compensators of a scenario see ``sensor_c`` and
+``sensor_rate_c_per_s``, a lab's view; ``coil_c`` and ``coil_rate_c_per_s`` are the truth.
 """
 
 from __future__ import annotations
@@ -78,6 +87,13 @@ def run_arrays(rd) -> dict[str, np.ndarray]:
         "chamber_c": th.chamber, "coil_c": th.coil, "coil_rate_c_per_s": th.coil_rate,
         "raw_rps": rd.fog.raw,
     }
+    for key, v in (("housing_c", th.housing), ("sensor_c", th.sensor),
+                   ("sensor_rate_c_per_s", th.sensor_rate)):
+        if v is not None:
+            arr[key] = v
+    sat = getattr(rd.fog, "saturated", None)
+    arr["saturated"] = (np.zeros(rd.fog.raw.shape, dtype=bool) if sat is None
+                        else np.asarray(sat, dtype=bool))
     for name, v in rd.fog.terms.items():
         arr[f"term_{name}_rps"] = v
     return arr

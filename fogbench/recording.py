@@ -34,8 +34,10 @@ a protocol scores the same run more than once; `<label>`: `raw`, `oracle` or a m
 | `/runs/<run>/fog/error_terms/<term>` | each simulated error term (`FogOutput.terms`), deg/h |
 | `/runs/<run>/table/tilt_deg`, `tilt_cmd_deg` | tilt angle and its command, deg |
 | `/runs/<run>/table/turn_rate_dps`, `turn_rate_cmd_dps` | turntable rate and its command, deg/s |
-| `/runs/<run>/thermal/chamber_c`, `coil_c` | chamber and coil temperature, deg C |
-| `/runs/<run>/thermal/coil_rate_c_per_min` | coil temperature rate, deg C/min |
+| `/runs/<run>/thermal/chamber_c`, `coil_c` | chamber and (true) coil temperature, deg C |
+| `/runs/<run>/thermal/housing_c`, `sensor_c` | FOG housing temperature and the temperature sensor's reading (what the compensators get), deg C |
+| `/runs/<run>/thermal/coil_rate_c_per_min` | true coil temperature rate, deg C/min |
+| `/runs/<run>/thermal/sensor_rate_c_per_min` | temperature rate differenced from the sensor's readings (what the compensators get), deg C/min |
 | `/runs/<run>/gravity/x`, `y`, `z` | `Truth.gravity` on the sensor axes, g |
 | `/report/metrics` | metrics tables, failed methods, display decimation (markdown, static) |
 | `/report/scenario` | the scenario file (markdown with a TOML block, static) |
@@ -53,8 +55,10 @@ smoothed protocols the block means at the blocks' mean times. A method that fail
 Allan deviation and PSD are static line strips in 2-D views with their own decade grid and
 labels (Rerun 0.41 has no logarithmic plot axis): they show the moment their tab opens, whatever
 timeline is selected. The confidence interval of the Allan deviation is the chi-square interval
-with the equivalent degrees of freedom of white rate noise (NIST SP 1065, Table 5, "white FM"):
-exact for angle random walk, optimistic at the long taus where other noises dominate. The PSD's
+(NIST SP 1065 eq. 45) with Greenhall and Riley's equivalent degrees of freedom for the noise type
+that leads the curve at each tau (``fogcomp.allan.oadev_ci``: the five-term IEEE 952 model
+fitted to the curve picks the type), so the bars widen where bias instability or rate random
+walk dominate instead of keeping white noise's width. The PSD's
 interval is the chi-square interval with the Welch EDF of a Hann window at 50 % overlap
 (Percival and Walden 1993, eq. 292b).
 
@@ -95,7 +99,7 @@ from fogcomp.units import DPH, DPS
 
 from .fmt import KEY_METRICS, fmt, md_table
 
-__all__ = ["write_recording", "view", "blueprint_for", "ReplicatesError", "decimation", "allan_interval", "psd_interval",
+__all__ = ["write_recording", "view", "blueprint_for", "ReplicatesError", "decimation", "psd_interval",
            "MAX_SERIES_POINTS", "MAX_POSE_POINTS", "TIMELINE", "REPLICATE_TIMELINE",
            "APPLICATION_ID", "CONFIDENCE"]
 
@@ -148,56 +152,6 @@ def _tint(c, f: float) -> tuple:
 
 # ---------------------------------------------------------------------------------------------
 # confidence intervals
-def allan_interval(adev, m, n: int, confidence: float = CONFIDENCE):
-    """Chi-square confidence interval of overlapping Allan deviations, white-rate-noise EDF.
-
-    Parameters
-    ----------
-    adev : array_like, shape (k,)
-        Overlapping Allan deviations (any unit; the bounds come out in the same unit).
-    m : array_like, shape (k,)
-        Averaging factors (tau = m / fs), samples, ``1 <= m <= (n - 1) // 2``.
-    n : int
-        Number of rate samples the deviations were computed from (``n + 1`` angle samples).
-    confidence : float
-        Two-sided confidence level, 0 < confidence < 1 (default 68.3 %, one sigma).
-
-    Returns
-    -------
-    lo, hi : ndarray, shape (k,)
-        Lower and upper bounds.
-    edf : ndarray, shape (k,)
-        Equivalent degrees of freedom.
-
-    Notes
-    -----
-    EDF of the overlapping Allan variance for white frequency noise (a gyro's white rate noise,
-    i.e. angle random walk), NIST SP 1065 (Riley 2008), Table 5, with ``N = n + 1`` phase
-    (angle) samples::
-
-        edf = (3 (N - 1) / (2 m) - 2 (N - 2) / N) * 4 m^2 / (4 m^2 + 5)
-
-    and the interval ``avar * edf / chi2(1 - a/2, edf) <= avar <= avar * edf / chi2(a/2, edf)``
-    (NIST SP 1065 eq. 36). It is the noise type that dominates short taus; where bias
-    instability or rate random walk dominate the true interval is wider.
-
-    TODO: switch to the EDF-based interval function that issue 13 adds to ``fogcomp/allan.py``
-    (Greenhall's EDF for the identified noise type) when it is merged.
-    """
-    from scipy.stats import chi2
-
-    adev = np.asarray(adev, dtype=float)
-    m = np.asarray(m, dtype=float)
-    big_n = float(n) + 1.0
-    edf = (3.0 * (big_n - 1.0) / (2.0 * m) - 2.0 * (big_n - 2.0) / big_n) * \
-        (4.0 * m**2 / (4.0 * m**2 + 5.0))
-    edf = np.maximum(edf, 1e-3)
-    a = 1.0 - confidence
-    lo = adev * np.sqrt(edf / chi2.ppf(1.0 - a / 2.0, edf))
-    hi = adev * np.sqrt(edf / chi2.ppf(a / 2.0, edf))
-    return lo, hi, edf
-
-
 def psd_interval(n: int, nperseg: int, confidence: float = CONFIDENCE):
     """Multiplicative chi-square interval of a Welch PSD (Hann window, 50 % overlap).
 
@@ -426,9 +380,14 @@ def _log_run(w: _Writer, name: str, rd, j: int, run_color) -> tuple[int, int]:
     th = rd.thermal
     for leaf, y, label, c in (("chamber_c", th.chamber, "chamber", _tint(run_color, 0.5)),
                               ("coil_c", th.coil, "coil", run_color),
+                              ("housing_c", th.housing, "housing", _tint(run_color, 0.25)),
+                              ("sensor_c", th.sensor, "sensor reading", _tint(run_color, 0.7)),
                               ("coil_rate_c_per_min", th.coil_rate * 60.0, "coil dT/dt",
-                               run_color)):
-        w.series(_p("runs", name, "thermal", leaf), t, y[s], f"{name} {label}", c)
+                               run_color),
+                              ("sensor_rate_c_per_min", th.sensor_rate * 60.0,
+                               "sensor dT/dt", _tint(run_color, 0.6))):
+        if y is not None:
+            w.series(_p("runs", name, "thermal", leaf), t, y[s], f"{name} {label}", c)
     for i, (ax, c) in enumerate(zip("xyz", ((214, 39, 40), (44, 160, 44), (31, 119, 180)))):
         w.series(_p("runs", name, "gravity", ax), t, tr.gravity[s, i], f"{name} gravity {ax}", c)
     for i, (term, v) in enumerate(rd.fog.terms.items()):
@@ -500,7 +459,7 @@ def _piece_color(colors, lab: str, in_sample: bool) -> tuple:
 def _log_piece(w: _Writer, key: str, it, colors, in_sample: bool) -> int:
     """Compensated outputs, errors, Allan deviation and PSD of one scored piece."""
     from fogcomp import metrics as M
-    from fogcomp.allan import oadev_details
+    from fogcomp.allan import oadev_ci
 
     p = it.piece
     k = decimation(p.t.size, MAX_SERIES_POINTS)
@@ -518,14 +477,16 @@ def _log_piece(w: _Writer, key: str, it, colors, in_sample: bool) -> int:
         err = (out - p.truth) / DPH
         if p.raw.size >= 64:
             try:
-                ad = oadev_details(err, p.fs)
+                # intervals from the EDF of the noise type leading each tau (Greenhall & Riley)
+                ad = oadev_ci(err, p.fs, ci=CONFIDENCE)
             except ValueError:  # display only: a curve that cannot be computed is left out
                 ad = None
             if ad is not None:
-                ok = np.isfinite(ad.adev) & (ad.adev > 0)
+                ok = np.isfinite(ad.adev) & (ad.adev > 0) & np.isfinite(ad.low) & \
+                    np.isfinite(ad.high)
                 if ok.sum() >= 2:
-                    lo, hi, _ = allan_interval(ad.adev[ok], ad.m[ok], ad.n)
-                    allan.append((lab, name, c, ad.taus[ok], ad.adev[ok], lo, hi))
+                    allan.append((lab, name, c, ad.taus[ok], ad.adev[ok], ad.low[ok],
+                                  ad.high[ok]))
         if p.raw.size >= 16:
             try:
                 f, pxx = M.psd(err - np.mean(err), p.fs)
@@ -538,7 +499,7 @@ def _log_piece(w: _Writer, key: str, it, colors, in_sample: bool) -> int:
     if allan:
         _loglog(w, _p("report", "allan", key, it.run), allan, "tau, s",
                 "Allan deviation of output - truth, deg/h",
-                f"bars: {100 * CONFIDENCE:.0f} % interval, white-noise EDF")
+                f"bars: {100 * CONFIDENCE:.0f} % interval, EDF of the leading noise type")
     if psd:
         lo_f, hi_f, edf = psd_interval(p.raw.size, nper)
         _loglog(w, _p("report", "psd", key, it.run), psd, "frequency, Hz",
@@ -797,7 +758,10 @@ def _blueprint(res, w: _Writer, reps: dict | None = None, active_tab: str = "Ove
     error_views = {r: lst for r, lst in by_run.items()}
 
     rate = [x for r in runs for x in (_p("runs", r, "truth", "rate"), _p("runs", r, "fog", "raw"))]
-    temp = each("thermal", "coil_c") + each("thermal", "chamber_c")
+    temp = each("thermal", "coil_c") + each("thermal", "housing_c") + \
+        each("thermal", "chamber_c") + each("thermal", "sensor_c")
+    temp_title = ("Temperature, deg C: coil (darkest), housing, chamber, sensor reading "
+                  "(lightest)")
     n_tables = len(runs)
     # a camera that frames the row of tables (0.8 m apart along y, each about 0.7 x 0.6 x 0.6 m)
     mid_y = 0.5 * (n_tables - 1) * TABLE_SPACING_M
@@ -815,7 +779,7 @@ def _blueprint(res, w: _Writer, reps: dict | None = None, active_tab: str = "Ove
                      row_shares=[3, 2]),
         rrb.Vertical(
             rrb.Tabs(*err_tabs, name="Error vs truth") if len(err_tabs) > 1 else err_tabs[0],
-            plot("Coil (dark) and chamber (light) temperature, deg C", temp),
+            plot(temp_title, temp),
             row_shares=[5, 2]),
         column_shares=[2, 3], name="Overview")
     tabs = [overview]
@@ -832,8 +796,9 @@ def _blueprint(res, w: _Writer, reps: dict | None = None, active_tab: str = "Ove
              each("table", "turn_rate_dps") + each("table", "turn_rate_cmd_dps")),
         plot("Gravity on the sensor axes (x red, y green, z blue), g",
              [_p("runs", r, "gravity", a) for r in runs for a in "xyz"]),
-        plot("Coil dT/dt, deg C/min", each("thermal", "coil_rate_c_per_min")),
-        plot("Coil (dark) and chamber (light) temperature, deg C", temp),
+        plot("dT/dt, deg C/min: coil (dark), differenced from the sensor (light)",
+             each("thermal", "coil_rate_c_per_min") + each("thermal", "sensor_rate_c_per_min")),
+        plot(temp_title, temp),
         grid_columns=2, name="Table and chamber"))
     terms = []
     for r in runs:

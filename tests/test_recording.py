@@ -221,6 +221,8 @@ def test_documented_entity_paths_exist(tiny):
                  f"/runs/{run}/table/turn_rate_dps", f"/runs/{run}/table/turn_rate_cmd_dps",
                  f"/runs/{run}/thermal/chamber_c", f"/runs/{run}/thermal/coil_c",
                  f"/runs/{run}/thermal/coil_rate_c_per_min",
+                 f"/runs/{run}/thermal/housing_c", f"/runs/{run}/thermal/sensor_c",
+                 f"/runs/{run}/thermal/sensor_rate_c_per_min",
                  f"/runs/{run}/gravity/x", f"/runs/{run}/gravity/y", f"/runs/{run}/gravity/z"}
         want |= {f"/runs/{run}/fog/error_terms/{term}" for term in res.data[run].fog.terms}
     for it in res.scored:
@@ -250,6 +252,12 @@ def test_truth_and_raw_are_every_sample_of_each_run_in_deg_per_s(tiny):
         assert abs(np.median(truth) - rd.run.motion[0].rate / DPS) < 1.0
         _, coil = rrd.scalars(f"/runs/{run}/thermal/coil_c")
         assert_f32_equal(coil, rd.thermal.coil, f"{run} coil")
+        _, sensor = rrd.scalars(f"/runs/{run}/thermal/sensor_c")
+        assert_f32_equal(sensor, rd.thermal.sensor, f"{run} sensor reading")
+        _, housing = rrd.scalars(f"/runs/{run}/thermal/housing_c")
+        assert_f32_equal(housing, rd.thermal.housing, f"{run} housing")
+        _, srate = rrd.scalars(f"/runs/{run}/thermal/sensor_rate_c_per_min")
+        assert_f32_equal(srate, rd.thermal.sensor_rate * 60.0, f"{run} sensor dT/dt")
         for i, ax in enumerate("xyz"):
             _, g = rrd.scalars(f"/runs/{run}/gravity/{ax}")
             assert_f32_equal(g, rd.truth.gravity[:, i], f"{run} gravity {ax}")
@@ -485,14 +493,31 @@ def _static_component(rrd, path, column):
 
 # --------------------------------------------------------------------------------------------
 # confidence intervals, against allantools and against a simulation
-@pytest.mark.parametrize("n,m", [(1000, 1), (1000, 16), (100_000, 256), (50, 8)])
-def test_allan_interval_is_allantools_white_fm_chi_square_interval(n, m):
-    lo, hi, edf = R.allan_interval(np.array([2.0]), np.array([m]), n)
-    want_edf = allantools.edf_simple(n + 1, m, 0)     # N phase samples, alpha 0: white FM
-    assert math.isclose(edf[0], want_edf, rel_tol=1e-12)
-    want_lo, want_hi = allantools.confidence_interval(2.0, want_edf)
-    assert math.isclose(lo[0], want_lo, rel_tol=1e-9)
-    assert math.isclose(hi[0], want_hi, rel_tol=1e-9)
+def test_allan_bars_are_allantools_greenhall_intervals_for_the_leading_noise_type(tiny):
+    """The recorded Allan bars are the chi-square intervals with Greenhall's EDF (allantools'
+    own ``edf_greenhall`` and ``confidence_interval``) for the noise type fogcomp identifies at
+    each tau, not white noise's EDF everywhere."""
+    from fogcomp.allan import oadev_ci
+
+    res, _, rrd = tiny
+    checked = 0
+    for it in res.scored:
+        p = it.piece
+        for lab, out in it.outputs.items():
+            err = (out - p.truth) / DPH
+            ci = oadev_ci(err, p.fs)
+            bars = rrd.static_strips(f"/report/allan/{it.protocol}/{it.run}/{lab}/ci")
+            assert len(bars) == ci.taus.size
+            for (lo, hi), a, m, alpha in zip(bars, ci.adev, ci.m, ci.alpha):
+                if alpha == 2:      # allantools has no EDF for white angle noise at few clusters
+                    continue
+                edf = allantools.edf_greenhall(alpha=int(alpha), d=2, m=int(m), N=ci.n + 1,
+                                               overlapping=True, modified=False)
+                want_lo, want_hi = allantools.confidence_interval(a, edf)
+                assert math.isclose(10 ** lo[1], want_lo, rel_tol=1e-5)
+                assert math.isclose(10 ** hi[1], want_hi, rel_tol=1e-5)
+                checked += 1
+    assert checked >= 10
 
 
 def test_psd_interval_covers_the_true_psd_of_white_noise_as_often_as_it_says():

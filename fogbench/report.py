@@ -744,6 +744,10 @@ def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_d
         text = render_report(res, fig_names, decim)
         if montecarlo is not None:
             text = _insert_mc(text, render_montecarlo(res, montecarlo, fig_names))
+        else:
+            bands = render_bands(res, None)
+            if bands:
+                text = _insert_mc(text, "\n".join(bands))
         if notes:
             text += "\n## Left out\n\n" + "\n".join(f"- {n}" for n in notes) + "\n"
         atomic_write_text(tmp / "report.md", text)
@@ -934,7 +938,58 @@ def render_montecarlo(res: ScenarioResult, mc: dict, fig_names: dict) -> str:
                       + "; ".join(bits) + ".", ""]
     if ("replicates",) in fig_names:
         L += [f"![distributions over replicates]({fig_names[('replicates',)]})", ""]
+    L += render_bands(res, mc)
     return "\n".join(L)
+
+
+def render_bands(res: ScenarioResult, mc: dict | None) -> list[str]:
+    """For every swept method (``sweep = {...}``): the band of its key metric over the settings
+    (best, worst) and where the paper's setting falls, per protocol; a ranking against a paper
+    is then stated over a baseline's reasonable settings, not one pick."""
+    plan = res.plan
+    groups: dict = {}
+    for m in plan.methods:
+        if m.group:
+            groups.setdefault(m.group, []).append(m)
+    if not groups:
+        return []
+    L = ["### Bands over hyperparameter settings (sweeps)", ""]
+    for prot in plan.protocols:
+        metric = key_metric(mc, prot.name, plan) if mc else next(
+            (k for k in ("drift_rms_dph", "bias_stability_100s_dph", "rmse_dph", "std_dps")
+             if any(k in m for by in res.metrics["protocols"][prot.name]["runs"].values()
+                    for m in by.values() if isinstance(m, dict))), None)
+        if metric is None:
+            continue
+        better_high = metric.endswith("_pct")
+        for group, members in groups.items():
+            vals = {}
+            for m in members:
+                if mc:
+                    sm = mc["over_runs"].get(prot.name, {}).get(m.label, {}).get(metric)
+                    v = sm["mean"] if sm and sm.get("n") else None
+                else:
+                    v = _mean_runs(res.metrics["protocols"][prot.name], m.label, metric)
+                if v is not None:
+                    vals[m.label] = v
+            if not vals:
+                continue
+            order = sorted(vals, key=vals.get, reverse=better_high)
+            paper = next((m.label for m in members if m.paper_setting), None)
+            L.append(f"- `{prot.name}`, {group} over {len(members)} settings, {metric}: best "
+                     f"{fmt(vals[order[0]], metric)} (`{order[0]}`), worst "
+                     f"{fmt(vals[order[-1]], metric)} (`{order[-1]}`)"
+                     + (f"; the default/paper setting `{paper}` gives "
+                        f"{fmt(vals[paper], metric)}, rank {order.index(paper) + 1} of "
+                        f"{len(order)}" if paper in vals else "") + ".")
+    L.append("")
+    return L
+
+
+def _mean_runs(pd: dict, label: str, metric: str):
+    vals = [m[label][metric] for m in pd["runs"].values()
+            if isinstance(m.get(label), dict) and isinstance(m[label].get(metric), (int, float))]
+    return sum(vals) / len(vals) if vals else None
 
 
 def _insert_mc(text: str, section: str) -> str:

@@ -596,6 +596,9 @@ class MethodSpec:
     name: str
     label: str
     params: dict
+    group: str | None = None        # the [[methods]] label a sweep member belongs to
+    setting: dict = field(default_factory=dict)   # the swept values of this member
+    paper_setting: bool = False     # this member has the paper's (or the default) values
 
 
 @dataclass(frozen=True)
@@ -607,6 +610,7 @@ class Bound:
     lo: float | None
     hi: float | None
     note: str
+    relative_to: str | None = None  # min/max are ratios to this row's value (e.g. "raw")
 
 
 @dataclass(frozen=True)
@@ -790,14 +794,25 @@ def load_plan(sc: Scenario) -> Plan:
         except KeyError as exc:
             raise t.err("name", exc.args[0]) from None
         params = dict(t.get("params", "table", {}))
-        try:
-            model = make_method(mname, **params)
-            check = getattr(model, "check_params", None) or getattr(model, "_validate", None)
-            if check is not None:
-                check()
-        except (TypeError, ValueError) as exc:
-            raise t.err("params", f"method {t.data.get('label', mname)!r}: {exc}") from None
-        methods.append(MethodSpec(mname, t.get("label", "name", mname), params))
+        label = t.get("label", "name", mname)
+        sweep = t.get("sweep", "table", None)
+        members = [({}, True)]
+        if sweep is not None:
+            members = _sweep_members(t, mname, params, sweep)
+        for setting, paper in members:
+            full = {**params, **setting}
+            try:
+                make_method(mname, **full).check_params()
+            except (TypeError, ValueError) as exc:
+                what = f"method {label!r}" + (f" with {setting}" if setting else "")
+                raise t.err("sweep" if setting else "params", f"{what}: {exc}") from None
+            mlabel = label if not setting else label + "." + ".".join(
+                f"{k}-{v}" for k, v in setting.items())
+            msg = name_problem(mlabel)
+            if msg:
+                raise t.err("sweep", f"member label {msg}")
+            methods.append(MethodSpec(mname, mlabel, full, group=label if sweep else None,
+                                      setting=setting, paper_setting=paper))
         t.done()
     if not methods:
         raise extra.err("methods", "expected at least one [[methods]] table")
@@ -806,16 +821,18 @@ def load_plan(sc: Scenario) -> Plan:
         raise extra.err("methods", f"method labels must be unique (give 'label'); got {labels}")
 
     known_methods = set(labels) | {"raw", "oracle"}
+    bound_methods = known_methods | {m.group for m in methods if m.group}  # a group: each member
     pnames = {p.name for p in protocols}
     bounds = []
     for i, bt in enumerate(extra.get("bounds", "tables", [])):
         t = _Table(bt, f"[[bounds]][{i}]", file)
         b = Bound(protocol=t.get("protocol", "str", choices=pnames),
-                  method=t.get("method", "str", choices=known_methods),
+                  method=t.get("method", "str", choices=bound_methods),
                   metric=t.get("metric", "str", choices=METRIC_NAMES),
                   run=t.get("run", "str", None, choices=names),
                   lo=t.get("min", "float", None), hi=t.get("max", "float", None),
-                  note=t.get("note", "str", ""))
+                  note=t.get("note", "str", ""),
+                  relative_to=t.get("relative_to", "str", None, choices=known_methods))
         if b.lo is None and b.hi is None:
             raise t.err("max", "a bound needs 'min', 'max' or both")
         if b.lo is not None and b.hi is not None and not b.lo <= b.hi:
@@ -854,6 +871,34 @@ def load_plan(sc: Scenario) -> Plan:
     extra.done()
     return Plan(tuple(protocols), tuple(methods), tuple(bounds), tuple(paper), axis, ci, notes,
                 tuple(claims), replicates, method_seeds, mc_seed)
+
+
+MAX_SWEEP = 64
+
+
+def _sweep_members(t: _Table, mname: str, params: dict, sweep: dict) -> list[tuple[dict, bool]]:
+    """Every combination of a ``sweep = {key = [values]}`` table, and which one is the paper's
+    setting (the values ``params`` gives, else the method's defaults)."""
+    import itertools
+
+    from fogcomp import get_method
+
+    defaults = get_method(mname)().get_params()
+    keys = list(sweep)
+    for k in keys:
+        v = sweep[k]
+        if k not in defaults:
+            raise t.err("sweep", f"{k!r} is not a hyperparameter of {mname}; it has "
+                        f"{sorted(defaults)}")
+        if not isinstance(v, list) or not v or len(set(map(repr, v))) != len(v):
+            raise t.err("sweep", f"{k}: expected a non-empty list of distinct values, got {v!r}")
+        if k in params:
+            raise t.err("sweep", f"{k} is both in params and swept; give it in one place")
+    combos = list(itertools.product(*(sweep[k] for k in keys)))
+    if len(combos) > MAX_SWEEP:
+        raise t.err("sweep", f"{len(combos)} combinations; at most {MAX_SWEEP}")
+    paper = {k: defaults[k] for k in keys}
+    return [(dict(zip(keys, c)), dict(zip(keys, c)) == paper) for c in combos]
 
 
 def expand(prot: Protocol, sc: Scenario) -> list[tuple[list[Selection], list[Selection]]]:

@@ -61,16 +61,36 @@ def _values(doc: dict, protocol: str, method: str, metric: str, run: str | None)
 
 
 def check_bounds(name: str, plan, doc: dict) -> list[str]:
-    """Messages for every metric outside its declared bounds (empty when all hold)."""
+    """Messages for every metric outside its declared bounds (empty when all hold).
+
+    The value is the mean over replicates (replicate 0's when there is one). A bound with
+    ``relative_to`` compares the ratio of the method's value to that row's (e.g. "no worse than
+    the raw output": ``relative_to = "raw"``, ``max = 1.0``). A bound on a sweep's label holds
+    for every member of the sweep.
+    """
     bad = []
     for b in plan.bounds:
-        for run, v, why in _values(doc, b.protocol, b.method, b.metric, b.run):
-            where = f"{name}: protocol {b.protocol}, run {run}, method {b.method}, {b.metric}"
-            if why:
-                bad.append(f"{where}: {why}")
-            elif (b.lo is not None and v < b.lo) or (b.hi is not None and v > b.hi) or \
-                    not math.isfinite(v):
-                bad.append(f"{where} = {fmt(v, b.metric)} outside [{fmt(b.lo)}, {fmt(b.hi)}]")
+        members = [m.label for m in plan.methods if m.group == b.method] or [b.method]
+        for method in members:
+            ref = {} if b.relative_to is None else {
+                run: v for run, v, why in _values(doc, b.protocol, b.relative_to, b.metric, b.run)
+                if not why}
+            for run, v, why in _values(doc, b.protocol, method, b.metric, b.run):
+                where = f"{name}: protocol {b.protocol}, run {run}, method {method}, {b.metric}"
+                if why:
+                    bad.append(f"{where}: {why}")
+                    continue
+                what = fmt(v, b.metric)
+                if b.relative_to is not None:
+                    if not ref.get(run):
+                        bad.append(f"{where}: no {b.relative_to} value to compare with")
+                        continue
+                    v = v / ref[run]
+                    what = f"{what} = {v:.3g} x {b.relative_to}"
+                if (b.lo is not None and v < b.lo) or (b.hi is not None and v > b.hi) or \
+                        not math.isfinite(v):
+                    bad.append(f"{where} = {what} outside [{fmt(b.lo)}, {fmt(b.hi)}]"
+                               + (f" (ratio to {b.relative_to})" if b.relative_to else ""))
     return bad
 
 

@@ -88,4 +88,50 @@ def main(seconds: float = 600.0, repeats: int = 5) -> int:
 
     print()
     bench_methods(repeats=min(repeats, 3))
+    print()
+    bench_replicates()
     return 0
+
+
+def _warm_up(i: int) -> int:
+    import fogbench.runner  # noqa: F401  (the imports a replicate needs)
+
+    time.sleep(0.2)  # keep this worker busy so that every worker gets one
+    return i
+
+
+def bench_replicates(names=("paper000_wnn", "paper002_acobp"), replicates: int = 10) -> None:
+    """Replicates per second of two bundled scenarios on 1 and on 2 local processes, and the
+    parallel efficiency (rate on 2 / (2 x rate on 1)); the table's motion is simulated before
+    the clock starts, as the runner does once per run definition."""
+    import tempfile
+    from concurrent.futures import as_completed
+    from pathlib import Path
+
+    from .executor import make_executor
+    from .montecarlo import ScenarioMC
+
+    root = Path(__file__).resolve().parents[1] / "scenarios"
+    print(f"Monte Carlo: {replicates} replicates after replicate 0, wall time")
+    for name in names:
+        path = root / f"{name}.toml"
+        if not path.exists():
+            print(f"  {name}: {path} not found; skipped")
+            continue
+        rates = {}
+        for jobs in (1, 2):
+            with tempfile.TemporaryDirectory() as d:
+                mc = ScenarioMC(path, Path(d) / "run", replicates=replicates + 1)
+                mc.simulate_truths()
+                with make_executor(jobs=jobs) as ex:
+                    # start the workers and import the bench in them before the clock starts
+                    for f in [ex.submit(_warm_up, i) for i in range(2 * jobs)]:
+                        f.result()
+                    t0 = time.perf_counter()
+                    mc.submit(ex)
+                    for fut in as_completed(mc.futures):
+                        mc.collect(fut)
+                    rates[jobs] = replicates / (time.perf_counter() - t0)
+                mc.work.remove()
+        print(f"  {name:16s} {rates[1]:7.2f} replicates/s on 1 process, {rates[2]:7.2f} on 2: "
+              f"parallel efficiency {rates[2] / (2 * rates[1]):.0%}")

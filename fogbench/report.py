@@ -907,10 +907,18 @@ def render_montecarlo(res: ScenarioResult, mc: dict, fig_names: dict) -> str:
                 for run in runs:
                     sm = mc["summary"].get(prot.name, {}).get(run, {}).get(pv.method, {}).get(
                         pv.metric)
-                    ours = (_ci_text(sm, pv.metric) if sm and sm.get("n") else
-                            "not identified" if pv.metric in ("arw_deg_rt_h",
-                                                              "bias_instability_dph",
-                                                              "rrw_dph_rt_h") else "not computed")
+                    allan = pv.metric in ("arw_deg_rt_h", "bias_instability_dph", "rrw_dph_rt_h")
+                    if sm and sm.get("n"):
+                        ours = _ci_text({**sm, "n_failed": 0}, pv.metric)
+                        total = sm["n"] + (sm.get("n_failed") or 0)
+                        if sm.get("n_failed"):
+                            ours += (f", identified in {sm['n']} of {total} replicates" if allan
+                                     else f", failed in {sm['n_failed']} of {total}")
+                    else:
+                        ours = "not identified" if allan else "not computed"
+                    if allan and pv.source.startswith("configured"):
+                        ours = f"configured {fmt(pv.value, pv.metric)}, " + (
+                            ours if ours == "not identified" else f"identified {ours}")
                     L.append(f"- `{prot.name}`, {run}, {pv.method}, {pv.metric}: reference "
                              f"{fmt(pv.value, pv.metric)} ({pv.source}); ours {ours}.")
         L.append("")

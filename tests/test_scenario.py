@@ -99,6 +99,14 @@ BAD = [
                          'headings_deg = [0.0]\nmove_s = 1.0\ndwell_s = 1.0'),
      ["move_s", "takes"]),
     (lambda t: t + '\n[scenario2\n', ["not valid TOML"]),
+    # the device's thermal build and range (issue 11)
+    (lambda t: t.replace('[fog]', '[fog]\nrange_dps = 0.0'), ["range_dps", "> 0"]),
+    (lambda t: t.replace('[fog]', '[fog]\ntemp_sensor_location = "case"'),
+     ["temp_sensor_location", "housing"]),
+    (lambda t: t.replace('[fog]', '[fog]\ntemp_sensor_resolution_c = 5.0'),
+     ["temp_sensor_resolution_c", "<="]),
+    (lambda t: t.replace('[fog]', '[fog]\ntemp_rate_cooling_ratio = -1.0'),
+     ["temp_rate_cooling_ratio", ">= 0"]),
 ]
 
 

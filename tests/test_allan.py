@@ -9,8 +9,6 @@ from __future__ import annotations
 
 import gzip
 import math
-import os
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -33,11 +31,7 @@ DEG = math.pi / 180.0          # written out here, independent of fogcomp.units
 
 # ---------------------------------------------------------------------------------------------
 # Real data: /work/shared/realdata (or $FOGBENCH_REALDATA), never copied into the repository.
-def _realdata_dir() -> Path:
-    env = os.environ.get("FOGBENCH_REALDATA")
-    if env:
-        return Path(env)
-    return Path(__file__).resolve().parents[2] / "shared" / "realdata"
+from helpers import realdata_dir as _realdata_dir  # noqa: E402
 
 
 ADIS_DIR = _realdata_dir() / "adis16405_static"

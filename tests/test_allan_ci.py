@@ -5,8 +5,6 @@ synthetic noise, and the real FOG curves of /work/shared/realdata/fog_allan_curv
 from __future__ import annotations
 
 import math
-import os
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -27,11 +25,7 @@ from allantools import ci as at_ci  # noqa: E402
 DEG = math.pi / 180.0
 
 
-def _realdata_dir() -> Path:
-    env = os.environ.get("FOGBENCH_REALDATA")
-    if env:
-        return Path(env)
-    return Path(__file__).resolve().parents[2] / "shared" / "realdata"
+from helpers import realdata_dir as _realdata_dir  # noqa: E402
 
 
 FOG_DIR = _realdata_dir() / "fog_allan_curves"

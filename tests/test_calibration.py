@@ -5,8 +5,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -16,11 +14,7 @@ from fogcomp.calibration import FERRARIS_PARTS, TriadCalibration, ferraris_calib
 DEG = math.pi / 180.0
 
 
-def _realdata_dir() -> Path:
-    env = os.environ.get("FOGBENCH_REALDATA")
-    if env:
-        return Path(env)
-    return Path(__file__).resolve().parents[2] / "shared" / "realdata"
+from helpers import realdata_dir as _realdata_dir  # noqa: E402
 
 
 IMUCAL = _realdata_dir() / "imucal_ferraris"

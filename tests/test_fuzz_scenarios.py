@@ -5,17 +5,14 @@ small scenario into a scratch ``--out`` and checks nothing lands outside it."""
 
 from __future__ import annotations
 
-import contextlib
-import io
 import os
 import re
-import signal
 from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from fogbench.cli import main
+from helpers import run_cli
 
 ROOT = Path(__file__).resolve().parents[1]
 SEEDS = {p.name: p.read_text() for p in sorted((ROOT / "scenarios").glob("*.toml"))}
@@ -31,17 +28,8 @@ PATHLIKE = ['"../x"', '""', '"."', '".."', '"a/b"', '"/etc/passwd"', '"con:"', '
 
 
 def _cli(args: list[str]) -> tuple[int, str]:
-    err = io.StringIO()
-    handler = signal.getsignal(signal.SIGTERM)
-    try:
-        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
-            try:
-                code = main(args)
-            except SystemExit as exc:
-                code = exc.code
-    finally:
-        signal.signal(signal.SIGTERM, handler)
-    return code, err.getvalue()
+    code, _, err = run_cli(*args)
+    return code, err
 
 
 @st.composite

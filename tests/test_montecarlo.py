@@ -5,16 +5,13 @@ is resumable, failures are counted, and the aggregate states its intervals and v
 from __future__ import annotations
 
 import contextlib
-import io
 import json
-import signal
 from concurrent.futures import as_completed
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-from fogbench.cli import main
+from helpers import run_cli
 from fogbench.executor import SerialExecutor, make_executor
 from fogbench.montecarlo import MonteCarloError, ScenarioMC, replicate_task
 
@@ -178,17 +175,8 @@ def test_a_failing_method_counts_as_failures_not_the_end(scn, tmp_path, monkeypa
 
 
 def _cli(*args):
-    err = io.StringIO()
-    handler = signal.getsignal(signal.SIGTERM)
-    try:
-        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
-            try:
-                code = main([str(a) for a in args])
-            except SystemExit as exc:
-                code = exc.code
-    finally:
-        signal.signal(signal.SIGTERM, handler)
-    return code, err.getvalue()
+    code, _, err = run_cli(*args)
+    return code, err
 
 
 def test_run_writes_replicates_and_the_aggregate(scn, tmp_path):

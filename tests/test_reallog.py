@@ -7,7 +7,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 from pathlib import Path
 
 import numpy as np
@@ -18,11 +17,7 @@ from fogbench.reallog import LogError, add_commands
 DEG = math.pi / 180.0
 
 
-def _realdata_dir() -> Path:
-    env = os.environ.get("FOGBENCH_REALDATA")
-    if env:
-        return Path(env)
-    return Path(__file__).resolve().parents[2] / "shared" / "realdata"
+from helpers import realdata_dir as _realdata_dir  # noqa: E402
 
 
 REAL = _realdata_dir()

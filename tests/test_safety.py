@@ -4,9 +4,7 @@ interrupted command leaves no temporary folders behind (issue 9)."""
 
 from __future__ import annotations
 
-import contextlib
 import hashlib
-import io
 import json
 import os
 import signal
@@ -18,6 +16,7 @@ from pathlib import Path
 import pytest
 
 from fogbench.cli import main
+from helpers import run_cli
 from fogbench.outdir import MARKER
 from fogbench.scenario import ScenarioError, load_plan, load_scenario, RUNNER_SECTIONS
 
@@ -62,21 +61,7 @@ def snapshot(root: Path) -> dict[str, str]:
             for p in sorted(root.rglob("*")) if p.is_file()}
 
 
-def cli(*args, cwd=None) -> tuple[int, str, str]:
-    """``fogbench ARGS`` in this process (as the console command runs it): exit code, stdout,
-    stderr. The signal handler main() installs is put back afterwards."""
-    out, err = io.StringIO(), io.StringIO()
-    handler = signal.getsignal(signal.SIGTERM)
-    try:
-        with contextlib.chdir(cwd or os.getcwd()), contextlib.redirect_stdout(out), \
-                contextlib.redirect_stderr(err):
-            try:
-                code = main([str(a) for a in args])
-            except SystemExit as exc:  # argparse
-                code = exc.code
-    finally:
-        signal.signal(signal.SIGTERM, handler)
-    return code, out.getvalue(), err.getvalue()
+cli = run_cli
 
 
 @pytest.fixture

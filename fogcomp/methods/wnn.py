@@ -23,7 +23,6 @@ import warnings
 
 import numpy as np
 import pywt
-from numpy.lib.stride_tricks import sliding_window_view
 from scipy import signal
 
 from .._checks import _mode, _wavelet

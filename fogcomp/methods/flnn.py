@@ -600,13 +600,15 @@ def _check_rcond(rcond) -> float:
 
 
 def _check_random_state(rs) -> None:
-    """None (refused at fit by Compensator._rng), a non-negative integer or a Generator."""
-    if rs is None or isinstance(rs, np.random.Generator):
+    """None (refused at fit by Compensator._rng), a non-negative integer, or what
+    ``numpy.random.default_rng`` takes besides: a Generator, BitGenerator or SeedSequence."""
+    if rs is None or isinstance(rs, (np.random.Generator, np.random.BitGenerator,
+                                     np.random.SeedSequence)):
         return
     if isinstance(rs, (int, np.integer)) and not isinstance(rs, bool) and rs >= 0:
         return
-    raise ValueError(f"random_state: expected a non-negative integer seed or a "
-                     f"numpy.random.Generator, got {rs!r}")
+    raise ValueError(f"random_state: expected a non-negative integer seed or a numpy "
+                     f"Generator, BitGenerator or SeedSequence, got {rs!r}")
 
 
 @register

@@ -35,7 +35,8 @@ import numpy as np
 
 from ..base import Compensator, DivergenceError, GyroData, register
 from ..units import DPH
-from .flnn import DEFAULT_RCOND, _restore_ident, _state_with_ident, _warn, lstsq_identify
+from .flnn import (DEFAULT_RCOND, _check_random_state, _restore_ident, _state_with_ident, _warn,
+                   lstsq_identify)
 
 __all__ = ["PolyTemp", "Bp", "AcoBp", "ConvergenceWarning", "TrainingRangeWarning", "train_lm",
            "random_search", "net_forward", "net_loss_grad", "n_params"]
@@ -65,16 +66,6 @@ def _is_int(v) -> bool:
 TRAININGS = ("gd", "lm")
 #: Start searches of :class:`AcoBp`.
 SEARCHES = ("aco", "random")
-
-
-def _check_random_state(rs) -> None:
-    """None (refused later, at fit), a non-negative integer seed or a numpy Generator."""
-    if rs is None or isinstance(rs, np.random.Generator):
-        return
-    if _is_int(rs) and rs >= 0:
-        return
-    raise ValueError(f"random_state: expected a non-negative integer seed or a "
-                     f"numpy.random.Generator, got {rs!r}")
 
 
 # ---------------------------------------------------------------------------------------------

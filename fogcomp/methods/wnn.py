@@ -27,6 +27,7 @@ from scipy import signal
 
 from .._checks import _mode, _wavelet
 from ..base import Compensator, DivergenceError, GyroData, register
+from .flnn import _check_random_state
 
 __all__ = [
     "WaveletNeuralNetwork",
@@ -630,11 +631,7 @@ class WaveletNeuralNetwork(Compensator):
         _int_at_least("max_iter", self.max_iter, 0)
         _choice("normalization", self.normalization, NORMALIZATIONS)
         _choice("training", self.training, TRAININGS)
-        rs = self.random_state
-        if not (rs is None or isinstance(rs, np.random.Generator)
-                or (isinstance(rs, numbers.Integral) and not isinstance(rs, bool) and rs >= 0)):
-            raise ValueError(f"random_state: expected a non-negative integer seed or a "
-                             f"numpy.random.Generator, got {rs!r}")
+        _check_random_state(self.random_state)
 
     # -- fitting ---------------------------------------------------------------------------------
     def _fit(self, data: GyroData, error) -> None:

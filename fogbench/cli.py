@@ -145,10 +145,11 @@ def _cmd_run(args) -> int:
             mc.simulate_truths(say)
             mc.submit(ex)
             mc.run_first(say)
-            with Progress(len(mc.todo), f"{name}: replicates", quiet=args.quiet or not mc.todo,
-                          ) as bar:
+            with Progress(len(mc.todo) + 1, f"{name}: replicates",
+                          quiet=args.quiet or not mc.todo) as bar:
                 from concurrent.futures import as_completed
 
+                bar.advance()  # replicate 0, computed here
                 for fut in as_completed(mc.futures):
                     bar.advance(failed=not mc.collect(fut))
     except BaseException:
@@ -170,15 +171,22 @@ def _cmd_run(args) -> int:
 
 
 def _cmd_check(args) -> int:
-    from .scenario import RUNNER_SECTIONS, load_plan, load_scenario
+    from .scenario import RUNNER_SECTIONS, ScenarioError, load_plan, load_scenario
 
-    for path in args.scenario:
-        sc = load_scenario(path, extra_sections=RUNNER_SECTIONS)
-        plan = load_plan(sc)
+    bad = 0
+    for path in args.scenario:  # every file is checked and reported, not only the first bad one
+        try:
+            sc = load_scenario(path, extra_sections=RUNNER_SECTIONS)
+            plan = load_plan(sc)
+        except ScenarioError as exc:
+            print(f"fogbench: error: {exc}", file=sys.stderr)
+            bad += 1
+            continue
         n = sum(r.duration for r in sc.runs) * sc.fs
         print(f"{path}: ok: scenario {sc.name!r}, {len(sc.runs)} run(s), {n:.0f} samples, "
-              f"{len(plan.protocols)} protocol(s), {len(plan.methods)} method(s)")
-    return 0
+              f"{len(plan.protocols)} protocol(s), {len(plan.methods)} method(s), "
+              f"{plan.replicates} replicate(s)")
+    return 2 if bad else 0
 
 
 def _failed(doc) -> list[str]:

@@ -393,7 +393,9 @@ def render_report(res: ScenarioResult, fig_names: dict, decimation: dict) -> str
         L += [f"> {note}", ""]
     L += ["Rows: `raw` is the FOG output; `oracle` is the raw output minus the true deterministic "
           "error terms (bias, switch-on bias, scale factor, misalignment, g and g^2, temperature, "
-          "rate ramp), the floor no model of those terms can beat; each method is fitted on the "
+          "rate ramp), the floor no model of those terms can beat in expectation (in one "
+          "replicate of a record dominated by slow noise the raw output can land closer to the "
+          "truth by chance: see the intervals over replicates); each method is fitted on the "
           "protocol's fit samples and scored on its score samples against the simulation's truth.",
           "", "Metric units are in their names: `_dps` deg/s, `_dph` deg/h, `_deg` deg, `_pct` "
           "percent improvement over raw (positive is better), `_s` seconds.", ""]

@@ -105,7 +105,6 @@ def bench_replicates(names=("paper000_wnn", "paper002_acobp"), replicates: int =
     parallel efficiency (rate on 2 / (2 x rate on 1)); the table's motion is simulated before
     the clock starts, as the runner does once per run definition."""
     import tempfile
-    from concurrent.futures import as_completed
     from pathlib import Path
 
     from .executor import make_executor
@@ -129,8 +128,7 @@ def bench_replicates(names=("paper000_wnn", "paper002_acobp"), replicates: int =
                         f.result()
                     t0 = time.perf_counter()
                     mc.submit(ex)
-                    for fut in as_completed(mc.futures):
-                        mc.collect(fut)
+                    mc.wait()
                     rates[jobs] = replicates / (time.perf_counter() - t0)
                 mc.work.remove()
         print(f"  {name:16s} {rates[1]:7.2f} replicates/s on 1 process, {rates[2]:7.2f} on 2: "

@@ -141,33 +141,37 @@ def _cmd_run(args) -> int:
                     method_seeds=args.method_seeds, methods=args.method, resume=args.resume)
     engine = _engine(args) if mc.todo else contextlib.nullcontext(SerialExecutor())
     try:
-        with engine as ex:
+        with engine as ex, Progress(mc.R - len(mc.resumed), f"{name}: replicates",
+                                    quiet=args.quiet or mc.R == 1) as bar:
             mc.simulate_truths(say)
-            mc.submit(ex)
-            mc.run_first(say)
-            with Progress(len(mc.todo) + 1, f"{name}: replicates",
-                          quiet=args.quiet or not mc.todo) as bar:
-                from concurrent.futures import as_completed
-
-                bar.advance()  # replicate 0, computed here
-                for fut in as_completed(mc.futures):
-                    bar.advance(failed=not mc.collect(fut))
+            if isinstance(ex, SerialExecutor):  # replicate 0 first: figures early, bar moving
+                mc.run_first(say)
+                bar.advance()
+                mc.submit(ex, on_done=lambda ok: bar.advance(failed=not ok))
+            else:  # workers start on 1.. while this process computes 0 in full
+                mc.submit(ex, on_done=lambda ok: bar.advance(failed=not ok))
+                mc.run_first(say)
+                bar.advance()
+            mc.wait()
     except BaseException:
         if mc.done:
             print(f"fogbench: {len(mc.done)} replicate(s) of {name} are kept in {mc.work.path}; "
                   "run again with --resume to go on", file=sys.stderr)
-        else:
-            mc.work.remove()  # nothing done: leave nothing behind
+        mc.work.remove_if_empty()
         raise
     doc = mc.finish(_engine_label(args) if mc.todo else "this process")
     write_run_dir(mc.res0, out, recording=not args.no_recording,
                   montecarlo=doc if mc.R > 1 else None, work=mc.work)
+    if mc.failures:
+        print(f"fogbench: {len(mc.failures)} of {mc.R} replicates of {name} failed as a whole "
+              f"(first: r{mc.failures[0]['replicate']}: {mc.failures[0]['error']}); the report "
+              "aggregates the others", file=sys.stderr)
     failed = _failed(mc.res0.metrics)
     print(f"{name}: wrote {out}/report.md, metrics.json"
           + ("" if args.no_recording else ", recording.rrd")
           + (f" ({mc.R} replicates)" if mc.R > 1 else "")
           + (f"; FAILED methods: {', '.join(failed)}" if failed else ""))
-    return 0
+    return 1 if mc.failures else 0
 
 
 def _cmd_check(args) -> int:
@@ -334,6 +338,10 @@ def main(argv=None) -> int:
     except (ScenarioError, ValueError, FileNotFoundError) as exc:
         print(f"fogbench: error: {exc}", file=sys.stderr)
         return 2
+    except OSError as exc:  # a full disk, a permission: one line naming the file, not a traceback
+        where = f" ({exc.filename})" if getattr(exc, "filename", None) else ""
+        print(f"fogbench: error: {exc.strerror or exc}{where}", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         print("fogbench: interrupted; files already complete are kept, none is half-written",
               file=sys.stderr)

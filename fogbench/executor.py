@@ -144,10 +144,8 @@ class SerialExecutor(cf.Executor):
         fut.set_running_or_notify_cancel()
         try:
             result = fn(*args, **kwargs)
-        except BaseException as exc:  # noqa: BLE001 (delivered through the future, as a pool does)
-            if isinstance(exc, (KeyboardInterrupt, SystemExit)):
-                raise
-            fut.set_exception(exc)
+        except Exception as exc:  # delivered through the future, as a pool does; Ctrl-C, SIGTERM
+            fut.set_exception(exc)  # (BaseException) end the run at once
         else:
             fut.set_result(result)
         return fut

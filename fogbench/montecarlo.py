@@ -31,7 +31,7 @@ import numpy as np
 
 from . import stats as S
 from .io import atomic_write_text, versions
-from .outdir import MARKER, OutDirError
+from .outdir import MARKER, OutDirError, _alive
 
 __all__ = ["MonteCarloError", "replicate_task", "replicate_doc", "aggregate", "WorkDir",
            "scenario_digest", "TIMING_METRICS"]
@@ -117,37 +117,46 @@ class WorkDir:
         return None
 
     def open(self, resume: bool) -> dict[int, dict]:
-        """Prepare the folder; return the completed replicates (empty unless ``resume``)."""
+        """Check the folder; return the completed replicates (empty unless ``resume``).
+
+        Nothing is created here (the folder appears with the first replicate written), and
+        nothing is deleted: replicates a previous run left are kept unless the user resumes
+        them or removes the folder; a folder another live process is filling is refused.
+        """
         found = _marker_any(self.path)
         if self.path.exists() and found is None:
             raise OutDirError(f"{self.path} exists and is not a fogbench replicates folder; it "
                               "was left untouched. Move it away or give another --out")
+        if found is not None and _alive(found.get("pid")):
+            raise MonteCarloError(f"{self.path} is being filled by another fogbench process "
+                                  f"(pid {found.get('pid')}); wait for it or give another --out")
         done: dict[int, dict] = {}
-        if resume:
-            sources = [self.path] if found is not None else []
-            prev = self.out / "replicates"
-            if not sources and (self.out / MARKER).exists() and prev.is_dir():
-                sources = [prev]
-            if not sources:
-                raise MonteCarloError(f"--resume: nothing to resume for {self.out} (neither "
-                                      f"{self.path} nor {prev} holds replicates)")
-            src = sources[0]
-            ident = _marker_any(src) if src == self.path else _read_json(prev / "identity.json")
-            msg = self._mismatch(ident or {}, src)
-            if msg:
-                raise MonteCarloError(msg)
-            for f in sorted(src.glob("r*.json")):
-                doc = _read_json(f)
-                if isinstance(doc, dict) and isinstance(doc.get("replicate"), int):
-                    done[doc["replicate"]] = doc
-            if src != self.path:
-                self._create()
-                for r, doc in done.items():
-                    self.write(doc)
+        if not resume:
+            left = sorted(self.path.glob("r*.json")) if found is not None else []
+            if left:
+                raise MonteCarloError(
+                    f"{self.path} holds {len(left)} replicate(s) of an earlier run that did not "
+                    "finish; give --resume to keep them and compute the rest, or remove the "
+                    "folder to start afresh")
+            return done
+        prev = self.out / "replicates"
+        if found is not None:
+            src, ident = self.path, found
+        elif (self.out / MARKER).exists() and prev.is_dir():
+            src, ident = prev, _read_json(prev / "identity.json")
         else:
-            if found is not None:
-                shutil.rmtree(self.path)
-            self._create()
+            raise MonteCarloError(f"--resume: nothing to resume for {self.out} (neither "
+                                  f"{self.path} nor {prev} holds replicates)")
+        msg = self._mismatch(ident or {}, src)
+        if msg:
+            raise MonteCarloError(msg)
+        for f in sorted(src.glob("r*.json")):
+            doc = _read_json(f)
+            if isinstance(doc, dict) and isinstance(doc.get("replicate"), int):
+                done[doc["replicate"]] = doc
+        if src != self.path:
+            for doc in done.values():
+                self.write(doc)
         return done
 
     def _create(self) -> None:
@@ -156,18 +165,28 @@ class WorkDir:
                                                          indent=2))
 
     def write(self, doc: dict) -> None:
+        if not (self.path / MARKER).exists():
+            self._create()
         atomic_write_text(self.path / f"r{doc['replicate']:05d}.json", json.dumps(_clean(doc)))
 
-    def move_into(self, run_tmp: Path) -> None:
-        """Move the replicate files into the new run directory (before it is put in place)."""
+    def copy_into(self, run_tmp: Path, keep: list[int]) -> None:
+        """Copy the replicates ``keep`` into the new run directory; the work folder stays until
+        the run directory is in place (:meth:`remove`), so a failed rename loses nothing."""
         dest = run_tmp / "replicates"
         dest.mkdir()
-        for f in sorted(self.path.glob("r*.json")):
-            os.replace(f, dest / f.name)
+        for r in keep:
+            f = self.path / f"r{r:05d}.json"
+            if f.exists():
+                shutil.copyfile(f, dest / f.name)
         atomic_write_text(dest / "identity.json", json.dumps(self.identity, indent=2))
 
     def remove(self) -> None:
         shutil.rmtree(self.path, ignore_errors=True)
+
+    def remove_if_empty(self) -> None:
+        """After a failure before any replicate was stored: leave nothing behind."""
+        if self.path.is_dir() and not any(self.path.glob("r*.json")):
+            shutil.rmtree(self.path, ignore_errors=True)
 
 
 def _marker_any(path: Path) -> dict | None:
@@ -287,6 +306,8 @@ def aggregate(docs: list[dict], sc, plan) -> dict:
 
     claims = []
     for c in plan.claims:
+        if c.better not in labels or c.than not in labels:
+            continue  # a method left out of this run (--method)
         better_cls = None
         spec = next((m for m in plan.methods if m.label == c.better), None)
         if spec is not None:
@@ -405,11 +426,29 @@ class ScenarioMC:
                 run.motion, self.sc.fs, self.sc.table, tilt0=run.tilt0)
         self.truth_s = time.perf_counter() - t0
 
-    def submit(self, executor) -> None:
+    def submit(self, executor, on_done=None) -> None:
+        """Submit the replicates still to do; each is stored (its file written) the moment it
+        completes, whatever the main process is doing, so a killed run keeps every finished
+        replicate. ``on_done(ok)`` is called after each (e.g. a progress bar)."""
         for r in self.todo:
             fut = executor.submit(replicate_task,
                                   (self.path, r, self.K, self.methods, self.truths))
             self.futures[fut] = r
+            fut.add_done_callback(lambda f, cb=on_done: self._store(f, cb))
+
+    def _store(self, fut, on_done=None) -> None:
+        if fut.cancelled():
+            return
+        r = self.futures[fut]
+        exc = fut.exception()
+        if exc is None:
+            doc = fut.result()
+            self.work.write(doc)
+            self.done[r] = doc
+        elif isinstance(exc, Exception):  # a crashed replicate is a failure, not the end
+            self.failures.append({"replicate": r, "error": f"{type(exc).__name__}: {exc}"})
+        if on_done is not None:
+            on_done(exc is None)
 
     def run_first(self, say=None) -> None:
         """Replicate 0 in full (arrays for the figures and the recording)."""
@@ -429,20 +468,22 @@ class ScenarioMC:
         self.work.write(doc)
         self.done[0] = doc
 
-    def collect(self, fut) -> bool:
-        """Store one finished replicate; False when it failed as a whole (counted, not fatal)."""
-        r = self.futures[fut]
-        try:
-            doc = fut.result()
-        except Exception as exc:  # a replicate that crashed is a failure, not the end of the run
-            self.failures.append({"replicate": r, "error": f"{type(exc).__name__}: {exc}"})
-            return False
-        self.work.write(doc)
-        self.done[r] = doc
-        return True
+    def wait(self) -> None:
+        """Until every submitted replicate has completed (and been stored)."""
+        import concurrent.futures as cf
+
+        cf.wait(list(self.futures))
+        for fut in self.futures:
+            exc = fut.exception() if not fut.cancelled() else None
+            if exc is not None and not isinstance(exc, Exception):
+                raise exc  # Ctrl-C or SIGTERM inside a serial replicate
+
+    def kept(self) -> list[int]:
+        """The replicates this run reports: 0 .. R-1 (a resumed folder may hold more)."""
+        return [r for r in range(self.R) if r in self.done]
 
     def finish(self, engine: str) -> dict:
-        docs = [self.done[r] for r in sorted(self.done)]
+        docs = [self.done[r] for r in self.kept()]
         mc = aggregate(docs, self.sc, self.plan)
         walls = [d["wall_s"] for d in docs if d["replicate"] > 0 and _is_num(d.get("wall_s"))]
         med = float(np.median(walls)) if walls else None

@@ -696,7 +696,7 @@ def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_d
     (``fogbench.outdir``). A figure that cannot be drawn is left out with a note in the report.
     ``montecarlo`` is the replicate aggregate (``fogbench.montecarlo``; in ``metrics.json`` under
     that key, in the report, in the recording); ``work`` the replicates' work folder, whose files
-    move into ``replicates/``.
+    are copied into ``replicates/`` and which is removed once the directory is in place.
     """
     out = check_out_dir(out, "run")
     tmp = new_part_dir(out, "run", {"scenario": res.scenario.name,
@@ -773,10 +773,11 @@ def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_d
                             replicates=None if montecarlo is None else
                             recording_replicates(montecarlo, work))
         if work is not None:
-            work.move_into(tmp)
+            work.copy_into(tmp, keep=list(range(montecarlo["replicates_requested"]))
+                           if montecarlo else [0])
         replace_dir(tmp, out, "run")
         if work is not None:
-            work.remove()
+            work.remove()  # only now: until the run directory is in place it is the only copy
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise

@@ -215,7 +215,8 @@ def run_scenario(path, progress=None, methods: list[str] | None = None, replicat
 
     ``replicate`` r draws every random stream (the FOG's switch-on draws and noise, the
     temperature sensor's noise, every random method's start) from coordinates (scenario seed, r,
-    run, stream) alone (:func:`replicate_seeds`); replicate 0 uses the runs' own seeds, as a single
+    run, stream) alone (:func:`run_seed`, :func:`method_seed`); replicate 0 uses the runs' own
+    seeds, as a single
     run always did. ``method_seeds`` K > 1 fits every method that draws random numbers K times
     per fit, with K seeds (their metrics in ``Scored.seed_metrics``). ``truths`` (run name ->
     ``Truth``) caches the deterministic table motion between replicates: filled when empty.
@@ -360,7 +361,8 @@ def method_seed(sc, plan, prot, ms, fit_sel, replicate: int, k: int) -> int:
         return _method_seed(sc, prot, ms, fit_sel)
     runs = [r.name for r in sc.runs]
     first = runs.index(fit_sel[0].run) if fit_sel and fit_sel[0].run in runs else 0
-    stream = f"method:{prot.name}:{ms.label}:{'|'.join(s.run for s in fit_sel)}:{k}"
+    # the members of a sweep share their random numbers: a band shows the setting, not the start
+    stream = f"method:{prot.name}:{ms.group or ms.label}:{'|'.join(s.run for s in fit_sel)}:{k}"
     return replicate_seed(scenario_seed(sc, plan), replicate, first, stream)
 
 

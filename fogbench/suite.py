@@ -7,7 +7,6 @@ import math
 import sys
 import time
 import traceback
-from concurrent.futures import as_completed
 from pathlib import Path
 
 from .executor import SerialExecutor, engine_label, make_executor
@@ -168,8 +167,9 @@ def claim_verdicts(plan, doc) -> list[str]:
                             for r, p, va, vb in pcts)
             tag = " (in-sample)" if pd["in_sample"] else ""
             out.append(f"{c.source}: \"{c.text}\" — protocol `{pname}`{tag}: {c.better} vs "
-                       f"{c.than} on {c.metric}: {mean:+.1f} % (claim {rng}): "
-                       f"**{'agrees' if ok else 'does not agree'}**. {per}.")
+                       f"{c.than} on {c.metric}: {mean:+.1f} % (claim {rng}; this one draw "
+                       f"{'within' if ok else 'outside'} it): **inconclusive** (one replicate, "
+                       f"no interval: give --replicates). {per}.")
     return out
 
 
@@ -340,8 +340,15 @@ def run_suite(scenario_dir: Path, out: Path, check: bool = False, jobs: int | No
     for p in chosen:
         name = next(n for n, f in first_file.items() if str(f) == p)
         try:
-            mcs[name] = ScenarioMC(p, Path(out) / name, replicates=replicates,
-                                   method_seeds=method_seeds, resume=resume)
+            try:
+                mcs[name] = ScenarioMC(p, Path(out) / name, replicates=replicates,
+                                       method_seeds=method_seeds, resume=resume)
+            except MonteCarloError as exc:
+                if not (resume and "nothing to resume" in str(exc)):
+                    raise
+                # --resume on a suite: a scenario with nothing left over starts afresh
+                mcs[name] = ScenarioMC(p, Path(out) / name, replicates=replicates,
+                                       method_seeds=method_seeds, resume=False)
         except (MonteCarloError, OutDirError) as exc:
             results.append({"path": p, "name": name, "ok": False, "wall_s": 0.0,
                             "error": str(exc)})
@@ -354,41 +361,25 @@ def run_suite(scenario_dir: Path, out: Path, check: bool = False, jobs: int | No
     engine = make_executor(jobs=jobs, scheduler=scheduler, cluster=cluster,
                            cluster_options=cluster_options) if need_pool else \
         contextlib.nullcontext(SerialExecutor())
-    with engine as ex, Progress(total, "suite", quiet=quiet) as bar:
-        for name, m in mcs.items():
-            try:
-                m.simulate_truths(None if quiet else (
-                    lambda msg, _n=name: print(f"[{_n}] {msg}", file=sys.stderr, flush=True)))
-            except Exception:  # reported when its replicate 0 runs (and fails the same way)
-                continue
-            m.submit(ex)
-        for name, m in mcs.items():
-            t1 = time.monotonic()
-            say = (lambda msg, _n=name: None) if quiet else (
-                lambda msg, _n=name: print(f"[{_n}] {msg}", file=sys.stderr, flush=True))
-            try:
-                m.run_first(say)
-                bar.advance()
-                for fut in as_completed(m.futures):
-                    bar.advance(failed=not m.collect(fut))
-                doc = m.finish(engine_label(jobs, scheduler, cluster) if need_pool
-                               else "this process")
-                write_run_dir(m.res0, Path(out) / name, recording=recording,
-                              montecarlo=doc if m.R > 1 else None, work=m.work)
-                metrics = {**m.res0.metrics, **({"montecarlo": doc} if m.R > 1 else {})}
-                results.append({"path": m.path, "name": name, "ok": True, "metrics": metrics,
-                                "wall_s": time.monotonic() - t1})
-            except Exception as exc:  # a broken scenario is reported; the suite goes on
-                results.append({"path": m.path, "name": name, "ok": False,
-                                "wall_s": time.monotonic() - t1,
-                                "error": f"{type(exc).__name__}: {exc}",
-                                "traceback": traceback.format_exc()})
-            m.res0 = None  # its arrays are written; free them before the next scenario
-            _report_done(results[-1], quiet)
+    try:
+        _run_all(mcs, engine, total, quiet, out, recording, results,
+                 engine_label(jobs, scheduler, cluster) if need_pool else "this process")
+    except BaseException:
+        kept = {n: len(m.done) for n, m in mcs.items() if m.done}
+        if kept:
+            print(f"fogbench: replicates kept for {', '.join(f'{n} ({k})' for n, k in kept.items())}"
+                  "; run the suite again with --resume to go on", file=sys.stderr)
+        for m in mcs.values():
+            m.work.remove_if_empty()
+        raise
     violations = []
     for r in results:
         if r["ok"]:
             violations += check_bounds(r["name"], plans[r["name"]], r["metrics"])
+            if r.get("replicate_failures"):
+                f = r["replicate_failures"]
+                violations.append(f"{r['name']}: {len(f)} replicate(s) failed as a whole "
+                                  f"(first: r{f[0]['replicate']}: {f[0]['error']})")
         else:
             violations.append(f"{r['name']}: scenario failed: {r['error']}")
     summary = summary_markdown(results, plans, out, violations)
@@ -399,7 +390,47 @@ def run_suite(scenario_dir: Path, out: Path, check: bool = False, jobs: int | No
         print(f"fogbench: bound: {v}", file=sys.stderr)
     if check and violations:
         return 1
-    return 0 if all(r["ok"] for r in results) else 1
+    return 0 if all(r["ok"] and not r.get("replicate_failures") for r in results) else 1
+
+
+def _run_all(mcs: dict, engine, total: int, quiet: bool, out, recording: bool,
+             results: list, label: str) -> None:
+    """Every scenario's replicates on one executor: the tables first, all replicates submitted
+    (each stored as it completes), then scenario by scenario its replicate 0 in full here, the
+    wait for its others, and its run directory."""
+    with engine as ex, Progress(total, "suite", quiet=quiet) as bar:
+        for name, m in mcs.items():
+            try:
+                m.simulate_truths(None if quiet else (
+                    lambda msg, _n=name: print(f"[{_n}] {msg}", file=sys.stderr, flush=True)))
+                m.submit(ex, on_done=lambda ok: bar.advance(failed=not ok))
+            except Exception:  # reported when its replicate 0 runs (and fails the same way)
+                continue
+        for name, m in mcs.items():
+            t1 = time.monotonic()
+            say = (lambda msg, _n=name: None) if quiet else (
+                lambda msg, _n=name: print(f"[{_n}] {msg}", file=sys.stderr, flush=True))
+            try:
+                m.run_first(say)
+                bar.advance()
+                m.wait()
+                if m.failures and len(m.failures) == len(m.todo) and m.todo:
+                    raise MonteCarloError(f"every replicate but 0 failed (first: "
+                                          f"{m.failures[0]['error']})")
+                doc = m.finish(label)
+                write_run_dir(m.res0, Path(out) / name, recording=recording,
+                              montecarlo=doc if m.R > 1 else None, work=m.work)
+                metrics = {**m.res0.metrics, **({"montecarlo": doc} if m.R > 1 else {})}
+                results.append({"path": m.path, "name": name, "ok": True,
+                                "metrics": metrics, "wall_s": time.monotonic() - t1,
+                                "replicate_failures": m.failures})
+            except Exception as exc:  # a broken scenario is reported; the suite goes on
+                results.append({"path": m.path, "name": name, "ok": False,
+                                "wall_s": time.monotonic() - t1,
+                                "error": f"{type(exc).__name__}: {exc}",
+                                "traceback": traceback.format_exc()})
+            m.res0 = None  # its arrays are written; free them before the next scenario
+            _report_done(results[-1], quiet)
 
 
 def _report_done(r: dict, quiet: bool):

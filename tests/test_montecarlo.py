@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import contextlib
 import json
-from concurrent.futures import as_completed
 
 import numpy as np
 import pytest
@@ -84,8 +83,8 @@ def run_mc(path, out, executor_cm, **kw):
         mc.simulate_truths()
         mc.submit(ex)
         mc.run_first()
-        for fut in as_completed(mc.futures):
-            assert mc.collect(fut)
+        mc.wait()
+    assert mc.failures == []
     return mc, mc.finish("test")
 
 
@@ -129,6 +128,10 @@ def test_resume_skips_completed_replicates_and_gives_the_same_aggregate(scn, tmp
     first.work.write(replicate_task((str(scn), 2, 1, None, {})))
     again = ScenarioMC(scn, out, resume=True)
     assert again.todo == [1, 3] and again.resumed == [0, 2]
+    # without --resume the kept replicates are neither used nor deleted: refused, naming them
+    with pytest.raises(MonteCarloError, match="2 replicate.*--resume"):
+        ScenarioMC(scn, out)
+    assert len(list(first.work.path.glob("r*.json"))) == 2
     _, mc = run_mc(scn, out, make_executor(jobs=1), resume=True)
     assert mc["digest"] == full["digest"]
     # an edited scenario is refused, naming the mismatch

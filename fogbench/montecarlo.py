@@ -231,6 +231,17 @@ def _series(docs: list[dict], prot: str, run: str, label: str, metric: str) -> n
     return np.asarray(out, dtype=float)
 
 
+def _computed(docs, prot: str, run: str, label: str, metric: str) -> bool:
+    """Whether ``metric`` exists for this run and label in some replicate, or the method
+    failed there (then its failures count)."""
+    for d in docs:
+        m = d["protocols"].get(prot, {}).get("runs", {}).get(run, {}).get(label)
+        if isinstance(m, dict) and (metric in m or m.get("status") == "failed"):
+            if metric in m or label not in ("raw", "oracle"):
+                return True
+    return False
+
+
 def _over_runs(docs, prot: str, runs: list[str], label: str, metric: str) -> np.ndarray:
     """Per replicate, the mean over ``runs`` (NaN when any is missing)."""
     cols = [_series(docs, prot, r, label, metric) for r in runs]
@@ -273,11 +284,15 @@ def aggregate(docs: list[dict], sc, plan) -> dict:
         po = over_runs.setdefault(prot.name, {})
         for lab in labels:
             for metric in sorted(metrics[lab]):
-                for r in runs:
+                # a metric some runs cannot have (drift needs dwells, Allan terms long records)
+                # is "not computed" there, not failed: those runs are left out of its summary
+                have = [r for r in runs if _computed(docs, prot.name, r, lab, metric)]
+                for r in have:
                     ps.setdefault(r, {}).setdefault(lab, {})[metric] = \
                         S.summarize(_series(docs, prot.name, r, lab, metric)).as_dict()
-                po.setdefault(lab, {})[metric] = \
-                    S.summarize(_over_runs(docs, prot.name, runs, lab, metric)).as_dict()
+                if have:
+                    po.setdefault(lab, {})[metric] = \
+                        S.summarize(_over_runs(docs, prot.name, have, lab, metric)).as_dict()
         # spread over method seeds inside a replicate (paper 002's question)
         for d in docs:
             for r, by_label in d["protocols"].get(prot.name, {}).get("seeds", {}).items():

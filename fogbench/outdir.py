@@ -130,7 +130,11 @@ def replace_dir(tmp: Path, out: Path, kind: str) -> None:
         old = Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}.", suffix=".old"))
         os.rmdir(old)
         os.replace(out, old)
-        os.replace(tmp, out)
+        try:
+            os.replace(tmp, out)
+        except BaseException:
+            os.replace(old, out)  # put the previous directory back: never neither
+            raise
         shutil.rmtree(old)
     else:
         os.replace(tmp, out)

@@ -1216,9 +1216,19 @@ def _significant(x, digits: int = ADDED_DIGITS) -> np.ndarray:
     x = np.asarray(x, dtype=float)
     out = x.copy()
     ok = np.isfinite(x) & (x != 0)
-    e = np.floor(np.log10(np.abs(x[ok])))
-    scale = 10.0 ** (digits - 1 - e)
-    out[ok] = np.round(x[ok] * scale) / scale
+    p = digits - 1 - np.floor(np.log10(np.abs(x[ok])))
+    # 10^|p| is an exact double up to 10^22: then one correctly rounded operation gives the
+    # double nearest to the decimal; the rare values beyond that range are formatted one by one.
+    exact = np.abs(p) <= 22
+    v, pe = x[ok][exact], p[exact]
+    pos = pe >= 0
+    r = np.empty_like(v)
+    r[pos] = np.round(v[pos] * 10.0 ** pe[pos]) / 10.0 ** pe[pos]
+    r[~pos] = np.round(v[~pos] / 10.0 ** -pe[~pos]) * 10.0 ** -pe[~pos]
+    sub = out[ok]
+    sub[exact] = r
+    sub[~exact] = [float(f"{q:.{digits}g}") for q in x[ok][~exact]]
+    out[ok] = sub
     return out
 
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 from pathlib import Path
 
 import numpy as np
@@ -360,8 +361,6 @@ def test_allan_replaces_only_a_folder_of_its_own(tmp_path):
     assert run(["allan", log, "--out", o, "--overwrite"])[0] == 0
     assert json.loads((o / "allan.json").read_text())["format"] == "fogbench-allan"
 
-
-import os  # noqa: E402
 
 
 @pytest.mark.parametrize("case", ["allan-file", "compensate-dir", "calibrate-dir",

@@ -769,8 +769,9 @@ def _figure(title: str, curve, ident, interval_label: str):
             y = np.sqrt(_BASIS[term](tt)) * nt.value / dph
             name = term
         bound = nt.status == "upper bound"
+        value = f"{'B = ' if term == 'B' else ''}{_fmt_term(nt)} {_DS_UNITS[term]}"
         ax.loglog(tt, y, ":" if bound else "--", lw=1.2 if bound else 1,
-                  label=f"{name} (slope {slopes[term]}): {_fmt_term(nt)} {_DS_UNITS[term]}"
+                  label=f"{name} (slope {slopes[term]}): {value}"
                         + (" (upper bound)" if bound else ""))
     ax.set_ylim(max(np.min(np.asarray(curve["adev"])) / dph / 5, 1e-12),
                 np.max(np.asarray(curve["adev"])) / dph * 3)

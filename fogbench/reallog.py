@@ -13,18 +13,23 @@ Outputs are written to temporary files and renamed into place once all of them a
 
 from __future__ import annotations
 
+import csv
+import functools
+import gzip
 import json
 import math
 import os
 import re
+import sys
 import tempfile
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 __all__ = ["LogError", "Log", "read_log", "read_curve", "add_commands", "GYRO_UNITS",
-           "ACC_UNITS"]
+           "ACC_UNITS", "MIN_RECORD_SAMPLES"]
 
 DEG = math.pi / 180.0
 G0 = 9.80665
@@ -40,9 +45,52 @@ TEMP_UNITS = {"c": 1.0}
 _KINDS = {"gyro": GYRO_UNITS, "acc": ACC_UNITS}
 _HEADER = re.compile(r"^(gyro|acc|accel)_([xyz])(?:_(.*))?$")
 
+#: Fewest samples (in the longest gap-free piece) that ``allan`` and ``calibrate`` with a fitted
+#: method accept: 64 samples give the overlapping Allan deviation 5 octave averaging times
+#: (1, 2, 4, 8, 16 samples; the longest usable is (n - 1) // 2), the fewest from which the noise
+#: terms' slopes can be told apart.
+MIN_RECORD_SAMPLES = 64
+#: Plausible local gravity, m/s^2 (9.78 at the equator to 9.83 at the poles at sea level, less
+#: on mountains), for ``calibrate ferraris --g``.
+G_RANGE_MPS2 = (9.7, 9.9)
+#: Rows from which writing or compensating shows a progress bar on stderr (when it is a terminal).
+PROGRESS_MIN_ROWS = 200_000
+
 
 class LogError(ValueError):
     """A log file, a curve file or a command-line option is refused (one-line message)."""
+
+
+# ---------------------------------------------------------------------------------------------
+# stderr: one line per note or warning
+def _note(text: str) -> None:
+    """One ``fogbench: ...`` line on stderr (what the command is working on)."""
+    print(f"fogbench: {text}", file=sys.stderr)
+
+
+def _warning(text) -> None:
+    """One ``fogbench: warning: ...`` line on stderr, whatever newlines ``text`` holds."""
+    print(f"fogbench: warning: {' '.join(str(text).split())}", file=sys.stderr)
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    _warning(message)
+
+
+def _warnings_as_lines(func):
+    """Run a command with every Python warning printed as one ``fogbench: warning:`` line on
+    stderr (no category, source file or source line)."""
+    @functools.wraps(func)
+    def command(args):
+        with warnings.catch_warnings():
+            warnings.simplefilter("default")
+            warnings.showwarning = _show_warning
+            return func(args)
+    return command
+
+
+def _is_identifiability(w) -> bool:
+    return w.category.__name__ == "IdentifiabilityWarning"
 
 
 @dataclass
@@ -79,6 +127,14 @@ class Log:
     @property
     def n(self) -> int:
         return len(self.frame)
+
+    def describe(self) -> str:
+        """One line: samples, the sample rate used (Hz) and the sampled duration (s, h), so a
+        time column in the wrong unit shows at once."""
+        d = self.n / self.fs
+        pieces = f" in {len(self.segments)} gap-free pieces" if len(self.segments) > 1 else ""
+        return (f"{self.path}: {self.n} samples at {self.fs:.6g} Hz (interval "
+                f"{1.0 / self.fs:.6g} s), {d:.6g} s = {d / 3600:.3g} h{pieces}")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -139,22 +195,47 @@ def _leading_comments(path: Path) -> int:
     return k
 
 
+def _fmt_number(x) -> str:
+    """A number as a person writes it (``inf``, ``1.5``), never ``np.float64(inf)``."""
+    try:
+        return f"{float(x):.10g}"
+    except (TypeError, ValueError):
+        return repr(x)
+
+
 def _read_frame(path):
     import pandas as pd
 
     p = Path(path)
+    if p.is_dir():
+        raise LogError(f"{path}: is a directory; give a CSV file")
     if not p.is_file():
         raise LogError(f"{path}: file not found")
     skip = _leading_comments(p)
     try:
+        # The header as written: pandas renames a repeated name 'a' to 'a.1' in the frame.
+        raw_header = pd.read_csv(p, skiprows=skip, compression="infer", header=None, nrows=1,
+                                 dtype=str, skipinitialspace=True, keep_default_na=False)
         frame = pd.read_csv(p, skiprows=skip, compression="infer", skipinitialspace=True)
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, OSError,
             EOFError) as exc:
         raise LogError(f"{path}: not a readable CSV file ({str(exc).splitlines()[0]})") from None
+    names = [str(c).strip() for c in raw_header.iloc[0].tolist()] if len(raw_header) else []
+    seen = set()
+    for k, name in enumerate(names):
+        if name in seen:
+            raise LogError(f"{path}: line {skip + 1}: duplicate column name {name!r} in the "
+                           f"header (columns {names.index(name) + 1} and {k + 1}); each column "
+                           "needs its own name")
+        seen.add(name)
     frame.columns = [str(c).strip() for c in frame.columns]
-    dup = frame.columns[frame.columns.duplicated()]
-    if len(dup):
-        raise LogError(f"{path}: column {dup[0]!r} appears twice in the header")
+    if len(frame.columns) == 1:
+        for sep, word in ((";", "semicolons"), ("\t", "tabs"), ("|", "'|'")):
+            if sep in frame.columns[0]:
+                raise LogError(f"{path}: line {skip + 1}: one column {frame.columns[0]!r}: the "
+                               f"file seems to be separated by {word}; fogbench reads "
+                               "comma-separated files (convert it, e.g. with pandas: "
+                               f"read_csv(sep={sep!r}).to_csv(...), minding decimal commas)")
     return frame, skip + 2          # line number of data row 0 = skip + 2 (1-based, header)
 
 
@@ -173,7 +254,7 @@ def _numeric(path, frame, column: str, first_line: int) -> np.ndarray:
             what = f"non-numeric value {raw!r}" if not re.fullmatch(
                 r"[+-]?(nan|inf|infinity)", raw.strip(), re.I) else f"non-finite value {raw!r}"
         else:
-            what = f"non-finite value {raw!r}"
+            what = f"non-finite value {_fmt_number(raw)}"
         n_bad = int(bad.sum())
         raise LogError(f"{path}: line {first_line + i}, column {column!r}: {what}"
                        + (f" ({n_bad} bad cells in this column)" if n_bad > 1 else ""))
@@ -182,7 +263,8 @@ def _numeric(path, frame, column: str, first_line: int) -> np.ndarray:
 
 def read_log(path, *, mapping=None, channels=None, fs=None, gaps: str = "refuse",
              time_tolerance: float = 0.05, min_samples: int = 2,
-             fs_is_fallback: bool = False) -> Log:
+             fs_is_fallback: bool = False, model_mapping: dict | None = None,
+             model_file=None) -> Log:
     """Read and validate a log (see the module docstring).
 
     Parameters
@@ -206,6 +288,11 @@ def read_log(path, *, mapping=None, channels=None, fs=None, gaps: str = "refuse"
         Fewest samples the command needs (in the longest gap-free segment).
     fs_is_fallback : bool
         ``fs`` is only a stand-in for a log without a time column (not checked against one).
+    model_mapping : dict of str to (str, str), optional
+        Channel -> (column, unit) taken from a saved model (``compensate``); ``mapping`` wins
+        over it, and an error names the model file, not a ``--column`` the user did not type.
+    model_file : str or Path, optional
+        The model file ``model_mapping`` comes from (for messages).
 
     Returns
     -------
@@ -216,12 +303,17 @@ def read_log(path, *, mapping=None, channels=None, fs=None, gaps: str = "refuse"
     if not (math.isfinite(time_tolerance) and 0 < time_tolerance < 0.5):
         raise LogError(f"--time-tolerance: expected a fraction between 0 and 0.5, got "
                        f"{time_tolerance!r}")
+    if fs is not None and not (math.isfinite(fs) and fs > 0):
+        raise LogError(f"--fs: expected a positive, finite sample rate in Hz, got "
+                       f"{_fmt_number(fs)}")
     mapped = _parse_mapping(mapping)
+    from_model = {ch: v for ch, v in (model_mapping or {}).items() if ch not in mapped}
     frame, first_line = _read_frame(path)
     if len(frame) == 0:
         raise LogError(f"{path}: no data rows")
-    found: dict[str, tuple[str, str]] = {}
-    mapped_sources = {src for src, _ in mapped.values()}
+    # Channel -> (column, unit as written); a unit is checked only for the channels used.
+    found: dict[str, tuple[str, str | None]] = {}
+    mapped_sources = {src for src, _ in [*mapped.values(), *from_model.values()]}
     for col in frame.columns:
         m = _HEADER.match(col)
         if col in mapped_sources:
@@ -229,18 +321,25 @@ def read_log(path, *, mapping=None, channels=None, fs=None, gaps: str = "refuse"
         if m:
             kind = "acc" if m.group(1) == "accel" else m.group(1)
             ch = f"{kind}_{m.group(2)}"
-            if ch in mapped:
+            if ch in mapped or ch in from_model:
                 continue
-            found[ch] = (col, _check_unit(path, ch, col, m.group(3) and m.group(3).lower()))
+            found[ch] = (col, m.group(3) and m.group(3).lower())
         elif col.startswith("time_") or col == "time":
-            found["time"] = (col, _check_unit(path, "time", col, col[5:].lower() or None))
+            found["time"] = (col, col[5:].lower() or None)
         elif col.startswith("temp_") or col == "temp":
-            found["temp"] = (col, _check_unit(path, "temp", col, col[5:].lower() or None))
+            found["temp"] = (col, col[5:].lower() or None)
     for ch, (src, unit) in mapped.items():
         if src not in frame.columns:
             raise LogError(f"{path}: --column {ch}={src}:{unit}: no column {src!r}; columns: "
                            f"{', '.join(frame.columns)}")
         found[ch] = (src, _check_unit(path, ch, src, unit))
+    for ch, (src, unit) in from_model.items():
+        if src not in frame.columns:
+            raise LogError(f"{path}: no column {src!r} for {ch}: the model {model_file} names "
+                           f"it (its calibration file's header); columns: "
+                           f"{', '.join(frame.columns)}; map this log's column with --column "
+                           f"{ch}=HEADER:{unit}")
+        found[ch] = (src, unit)
     wanted = list(channels) if channels is not None else [c for c in found if c != "time"]
     if "gyro_*" in wanted:
         gyros = sorted(c for c in found if c.startswith("gyro_"))
@@ -255,6 +354,9 @@ def read_log(path, *, mapping=None, channels=None, fs=None, gaps: str = "refuse"
             raise LogError(f"{path}: missing column for {ch} (e.g. {ch}_"
                            f"{next(iter(_unit_table(ch)))}); columns: {', '.join(frame.columns)}"
                            f"; map another name with --column {ch}=HEADER:UNIT")
+    for ch in [*wanted, *(["time"] if "time" in found else [])]:
+        src, unit = found[ch]
+        found[ch] = (src, _check_unit(path, ch, src, unit))
     values, units, sources = {}, {}, {}
     for ch in wanted:
         src, unit = found[ch]
@@ -309,7 +411,7 @@ def read_log(path, *, mapping=None, channels=None, fs=None, gaps: str = "refuse"
         raise LogError(f"{path}: no time column (time_s) to take the sample rate from; "
                        "give --fs HZ")
     if not (math.isfinite(fs) and fs > 0):
-        raise LogError(f"--fs: expected a positive sample rate in Hz, got {fs!r}")
+        raise LogError(f"--fs: expected a positive sample rate in Hz, got {_fmt_number(fs)}")
     longest = max(b - a for a, b in segments)
     if longest < min_samples:
         raise LogError(f"{path}: record too short: {longest} samples"
@@ -373,21 +475,164 @@ def read_curve(path, ci: float | None = None):
 
 # ---------------------------------------------------------------------------------------------
 # Writing: temporary files, renamed into place at the end
-class _Outputs:
-    """Collects outputs; :meth:`commit` renames them into place all at once."""
+# What each command recognises as its own output: only such a file is ever replaced (and only
+# with --overwrite); anything else at an output path is refused.
+_RECOGNISE_MAX_BYTES = 50_000_000
+_COMPENSATED_COLUMN = re.compile(r"^(gyro_[xyz]_comp_[a-z0-9_]+|gyro_[xyz]_cal_dps|"
+                                 r"acc_[xyz]_cal_mps2)$")
 
-    def __init__(self, overwrite: bool):
+
+def _json_format(path: Path):
+    """The ``format`` key of a small JSON object file, else None."""
+    try:
+        if path.stat().st_size > _RECOGNISE_MAX_BYTES:
+            return None
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return doc.get("format") if isinstance(doc, dict) else None
+
+
+def _starts_with(path: Path, magic: bytes) -> bool:
+    try:
+        with open(path, "rb") as f:
+            return f.read(len(magic)) == magic
+    except OSError:
+        return False
+
+
+def _is_model_manifest(path: Path) -> bool:
+    return _json_format(path) in ("fogbench-log-model", "fogbench-triad-model")
+
+
+def _is_fogcomp_model(path: Path) -> bool:
+    if path.suffix == ".npz":        # the array half of a pair: a zip beside its own JSON half
+        return _starts_with(path, b"PK") and _json_format(path.with_suffix(".json")) in (
+            "fogcomp-model", None) and not path.with_suffix(".json").is_dir()
+    return _json_format(path) == "fogcomp-model"
+
+
+def _is_allan_json(path: Path) -> bool:
+    return _json_format(path) == "fogbench-allan"
+
+
+def _is_compensated_csv(path: Path) -> bool:
+    """A CSV (gzip or not) whose header has the columns ``compensate`` adds."""
+    try:
+        opener = gzip.open if _starts_with(path, b"\x1f\x8b") else open
+        with opener(path, "rt", encoding="utf-8", newline="") as f:
+            header = next(csv.reader([f.readline(100_000)]), [])
+    except (OSError, ValueError, EOFError):
+        return False
+    return any(_COMPENSATED_COLUMN.match(c.strip()) for c in header)
+
+
+def _same_file(a, b) -> bool:
+    a, b = Path(a), Path(b)
+    try:
+        if a.exists() and b.exists():
+            return os.path.samefile(a, b)
+    except OSError:
+        pass
+    return a.resolve() == b.resolve()
+
+
+def _check_place(path: Path, flag: str) -> None:
+    """The nearest existing ancestor of ``path`` is a writable directory (missing folders are
+    created when the outputs are written)."""
+    anc = path.parent
+    while not anc.exists() and anc != anc.parent:
+        if anc.is_symlink():            # dangling link
+            break
+        anc = anc.parent
+    if not anc.is_dir():
+        raise LogError(f"{flag} {path}: {anc} is not a directory")
+    if not os.access(anc, os.W_OK | os.X_OK):
+        raise LogError(f"{flag} {path}: the folder {anc} is not writable")
+
+
+class _Outputs:
+    """Checks every output path before any work, collects the outputs as temporary files, and
+    :meth:`commit` renames them into place all at once.
+
+    An existing output is refused unless ``overwrite``; even then only a file that ``recognise``
+    identifies as this command's own output is replaced, and never an input."""
+
+    def __init__(self, overwrite: bool, command: str):
         self.overwrite = overwrite
+        self.command = command
         self.pending: list[tuple[str, Path]] = []
 
-    def target(self, path: Path, protect: tuple = ()) -> Path:
+    def target(self, path: Path, protect: tuple = (), *, recognise=None, what: str = "output",
+               flag: str = "--out") -> Path:
+        """Check one output file; returns its path.
+
+        Parameters
+        ----------
+        path : Path
+            The file to write.
+        protect : tuple of paths
+            Inputs of the command: never written.
+        recognise : callable of Path to bool
+            True for a file this command wrote (the only kind ever replaced).
+        what : str
+            What the output is, for messages ("model file").
+        flag : str
+            The option that named it, for messages.
+        """
         path = Path(path)
         for p in protect:
-            if Path(p).resolve() == path.resolve():
+            if _same_file(p, path):
                 raise LogError(f"{path}: is an input of this command; choose another output")
-        if path.exists() and not self.overwrite:
-            raise LogError(f"{path}: exists; not overwritten (give --overwrite to replace it)")
+        if path.is_dir():
+            raise LogError(f"{flag} {path}: is a directory; {flag} names a file here")
+        _check_place(path, flag)
+        if path.is_symlink() or path.exists():
+            if path.is_symlink() or not path.is_file() or recognise is None or \
+                    not recognise(path):
+                raise LogError(f"{path}: exists and is not a {what} written by fogbench "
+                               f"{self.command}; not replaced (not even with --overwrite); "
+                               f"choose another {flag}")
+            if not self.overwrite:
+                raise LogError(f"{path}: exists; not replaced (--overwrite replaces it)")
         return path
+
+    def folder(self, path: Path, protect: tuple = (), *, marker: str, recognise,
+               members: list, flag: str = "--out") -> dict:
+        """Check an output folder holding ``marker`` (recognised by ``recognise``) and
+        ``members`` (name -> recogniser); returns {name: path} for the marker and members.
+        An existing marker or member is replaced only with ``overwrite`` and only when the
+        folder's marker is recognised as this command's own."""
+        path = Path(path)
+        if path.exists() and not path.is_dir():
+            raise LogError(f"{flag} {path}: is a file, not a folder; {flag} names the folder "
+                           f"for {marker} and the figures")
+        _check_place(path / marker, flag)
+        names = [marker, *(n for n, _ in members)]
+        paths = {n: path / n for n in names}
+        for n, p in paths.items():
+            for q in protect:
+                if _same_file(q, p):
+                    raise LogError(f"{p}: is an input of this command; choose another output")
+        existing = [n for n, p in paths.items() if p.exists() or p.is_symlink()]
+        if existing:
+            m = paths[marker]
+            if not (m.is_file() and not m.is_symlink() and recognise(m)):
+                raise LogError(f"{path / existing[0]}: exists and {path} is not a folder written "
+                               f"by fogbench {self.command} (no {marker} of its own); not "
+                               f"replaced (not even with --overwrite); choose another {flag}")
+            for n, rec in members:
+                p = paths[n]
+                if (p.exists() or p.is_symlink()) and (
+                        p.is_symlink() or not p.is_file() or not rec(p)):
+                    raise LogError(f"{p}: exists and is not a file written by fogbench "
+                                   f"{self.command}; not replaced (not even with --overwrite); "
+                                   f"choose another {flag}")
+            if not self.overwrite:
+                raise LogError(f"{path / existing[0]}: exists; not replaced (--overwrite "
+                               "replaces the outputs of fogbench "
+                               f"{self.command} in {path})")
+        return paths
 
     def temp(self, path: Path) -> str:
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -486,7 +731,15 @@ def _table(rows) -> str:
     return "\n".join(lines)
 
 
-def _plot(path_tmp: str, title: str, curve, ident, interval_label: str) -> None:
+#: Flicker (bias-instability) noise of coefficient B has a flat Allan deviation floor of
+#: sqrt(2 ln 2 / pi) B = 0.6643 B (IEEE Std 952-1997, annex C, eq. C.13).
+ALLAN_FLOOR = math.sqrt(2.0 * math.log(2.0) / math.pi)
+
+
+def _figure(title: str, curve, ident, interval_label: str):
+    """The Allan plot of one column (a matplotlib Figure): the curve, its interval, the fitted
+    model, and each term's asymptote: identified terms dashed, upper bounds dotted; B drawn at
+    its Allan floor 0.664 B and labelled so."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -505,16 +758,21 @@ def _plot(path_tmp: str, title: str, curve, ident, interval_label: str) -> None:
     tt = np.logspace(math.log10(t.min()), math.log10(t.max()), 200)
     ax.loglog(tt, ident.model_adev(tt) / dph, "-", color="k", lw=1, label="fitted model")
     slopes = {"Q": "-1", "N": "-1/2", "B": "0", "K": "+1/2", "R": "+1"}
-    for j, term in enumerate(NOISE_TERMS):
+    for term in NOISE_TERMS:
         nt = ident.terms[term]
         if nt.status == "not identified":
             continue
         if term == "B":
-            y = np.full_like(tt, nt.value * 0.6643 / dph)
+            y = np.full_like(tt, nt.value * ALLAN_FLOOR / dph)
+            name = f"Allan floor {ALLAN_FLOOR:.3f} B"
         else:
             y = np.sqrt(_BASIS[term](tt)) * nt.value / dph
-        ax.loglog(tt, y, "--", lw=1, label=f"{term} (slope {slopes[term]}): "
-                  f"{_fmt_term(nt)} {_DS_UNITS[term]}")
+            name = term
+        bound = nt.status == "upper bound"
+        value = f"{'B = ' if term == 'B' else ''}{_fmt_term(nt)} {_DS_UNITS[term]}"
+        ax.loglog(tt, y, ":" if bound else "--", lw=1.2 if bound else 1,
+                  label=f"{name} (slope {slopes[term]}): {value}"
+                        + (" (upper bound)" if bound else ""))
     ax.set_ylim(max(np.min(np.asarray(curve["adev"])) / dph / 5, 1e-12),
                 np.max(np.asarray(curve["adev"])) / dph * 3)
     ax.set_xlabel("averaging time tau, s")
@@ -523,8 +781,25 @@ def _plot(path_tmp: str, title: str, curve, ident, interval_label: str) -> None:
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7)
     fig.tight_layout()
+    return fig
+
+
+def _plot(path_tmp: str, title: str, curve, ident, interval_label: str) -> None:
+    import matplotlib.pyplot as plt
+
+    fig = _figure(title, curve, ident, interval_label)
     fig.savefig(path_tmp, format="png", dpi=110)
     plt.close(fig)
+
+
+def _allan_folder(out: _Outputs, args, names) -> dict | None:
+    """Check ``--out DIR`` for allan.json and one PNG per name (before any work)."""
+    if not args.out:
+        return None
+    protect = [p for p in (args.log, args.curve) if p]
+    return out.folder(Path(args.out), protect, marker="allan.json", recognise=_is_allan_json,
+                      members=[(f"allan_{n}.png", lambda q: _starts_with(q, b"\x89PNG"))
+                               for n in names])
 
 
 def _cmd_allan(args) -> int:
@@ -532,13 +807,16 @@ def _cmd_allan(args) -> int:
 
     ci = ONE_SIGMA_CI if args.ci is None else args.ci
     if not (0 < ci < 1):
-        raise LogError(f"--ci: expected a probability between 0 and 1, got {ci}")
-    out = _Outputs(args.overwrite)
+        raise LogError(f"--ci: expected a probability between 0 and 1, got {_fmt_number(ci)}")
+    out = _Outputs(args.overwrite, "allan")
+    _allan_folder(out, args, [])            # --out: a folder, placeable, not someone else's
     results = []          # (name, curve dict, ident, extra json)
+    summary = None
     if args.curve:
         if args.log is not None:
             raise LogError("allan: give either LOG.csv or --curve CURVE.csv, not both")
         curves, unit = read_curve(args.curve, args.curve_ci)
+        targets = _allan_folder(out, args, list(curves))
         src = args.curve
         for ax, (t, a, lo, hi) in curves.items():
             try:
@@ -559,29 +837,35 @@ def _cmd_allan(args) -> int:
                     raise LogError(f"--columns: {c!r} is not a gyro channel (gyro_x, gyro_y, "
                                    "gyro_z)")
         log = read_log(args.log, mapping=args.column, channels=chans or ["gyro_*"], fs=args.fs,
-                       gaps=args.gaps, time_tolerance=args.time_tolerance, min_samples=9)
+                       gaps=args.gaps, time_tolerance=args.time_tolerance,
+                       min_samples=MIN_RECORD_SAMPLES)
         if chans is None:
             chans = sorted(c for c in log.channels if c.startswith("gyro_"))
-        src = args.log
         for ch in chans:
             if log.units[ch] == "au":
                 raise LogError(f"{args.log}: column {log.sources[ch]!r} is in raw counts (au); "
                                "the Allan analysis needs a rate unit (dps, rps, dph)")
+            v = log.channels[ch]
+            if np.ptp(v) == 0:
+                others = [c for c in chans if c != ch]
+                raise LogError(f"{args.log}: column {log.sources[ch]!r} is constant "
+                               f"({_fmt_number(v[0] / GYRO_UNITS[log.units[ch]])} "
+                               f"{log.units[ch]} in all {log.n} rows): a stuck channel has no "
+                               "noise to analyse" + (f"; leave it out with --columns "
+                                                     f"{','.join(others)}" if others else ""))
+        targets = _allan_folder(out, args, [f"{ch}_{log.units[ch]}" for ch in chans])
+        src = args.log
+        summary = log.describe()
+        for ch in chans:
             curve, ident = _allan_of(log.channels[ch], log, ci)
             results.append((f"{ch}_{log.units[ch]}", {
                 "taus": curve.taus, "adev": curve.adev, "low": curve.low, "high": curve.high},
                 ident, {"edf": curve.edf.tolist(), "noise_alpha": curve.alpha.tolist()}))
         label = f"{ci:.1%} interval (EDF)"
         meta = {"log_file": str(args.log), "fs_hz": log.fs, "n_samples": log.n,
+                "duration_s": log.n / log.fs,
                 "segments": [[a, b] for a, b in log.segments], "ci": ci}
-    outdir = Path(args.out) if args.out else None
-    targets = {}
-    if outdir is not None:
-        protect = [p for p in (args.log, args.curve) if p]
-        targets["json"] = out.target(outdir / "allan.json", protect)
-        for name, *_ in results:
-            targets[name] = out.target(outdir / f"allan_{name}.png", protect)
-    doc = dict(meta)
+    doc = {"format": "fogbench-allan", "version": 1, **meta}
     doc["columns"] = {}
     dph = DEG / 3600.0
     for name, curve, ident, extra in results:
@@ -594,16 +878,19 @@ def _cmd_allan(args) -> int:
         entry["noise"] = ident.to_datasheet()
         doc["columns"][name] = entry
     try:
-        if outdir is not None:
-            out.write_text(targets["json"], json.dumps(doc, indent=2, allow_nan=False))
+        if targets is not None:
+            out.write_text(targets["allan.json"], json.dumps(doc, indent=2, allow_nan=False))
             for name, curve, ident, _ in results:
-                _plot(out.temp(targets[name]), f"{Path(src).name}: {name}", curve, ident, label)
+                _plot(out.temp(targets[f"allan_{name}.png"]), f"{Path(src).name}: {name}",
+                      curve, ident, label)
             out.commit()
     finally:
         out.discard()
+    if summary:
+        print(summary)
     print(_table([(name, ident) for name, _, ident, _ in results]))
-    if outdir is not None:
-        print(f"wrote {targets['json']} and {len(results)} figure(s) in {outdir}")
+    if targets is not None:
+        print(f"wrote {targets['allan.json']} and {len(results)} figure(s) in {args.out}")
     return 0
 
 
@@ -620,6 +907,48 @@ def _earth_rate_body(latitude_deg: float, heading_deg: float, z_up: bool) -> np.
     return w
 
 
+def _check_calibrate_flags(args) -> None:
+    """Refuse non-finite or implausible numbers in calibrate's flags, naming the flag."""
+    def finite(flag, value, unit):
+        if value is not None and not math.isfinite(value):
+            raise LogError(f"{flag}: expected a finite number in {unit}, got "
+                           f"{_fmt_number(value)}")
+
+    finite("--rate-dps", args.rate_dps, "deg/s")
+    finite("--heading-deg", args.heading_deg, "deg")
+    finite("--latitude-deg", args.latitude_deg, "deg")
+    if args.latitude_deg is not None and not -90.0 <= args.latitude_deg <= 90.0:
+        raise LogError(f"--latitude-deg: expected a latitude between -90 and 90 deg, got "
+                       f"{_fmt_number(args.latitude_deg)}")
+    finite("--angle-deg", args.angle_deg, "deg")
+    if args.angle_deg is not None and args.angle_deg == 0:
+        raise LogError("--angle-deg: the rotations' angle must not be 0")
+    lo, hi = G_RANGE_MPS2
+    if not (math.isfinite(args.g) and lo <= args.g <= hi):
+        raise LogError(f"--g: expected the local gravity in m/s^2 (not in g), between {lo:g} "
+                       f"and {hi:g}, got {_fmt_number(args.g)}")
+
+
+def _one_attitude(log: Log, max_deg: float = 5.0) -> str | None:
+    """When the record's accelerometers show a single attitude (the mean specific force of
+    each tenth of the record within ``max_deg`` of the overall mean), describe it; else None
+    (also when there are no accelerometers in m/s^2 or g)."""
+    if not all(f"acc_{a}" in log.channels and log.units[f"acc_{a}"] != "au" for a in "xyz"):
+        return None
+    f = np.column_stack([log.channels[f"acc_{a}"] for a in "xyz"])
+    mean = f.mean(axis=0)
+    if not np.linalg.norm(mean) > 0:
+        return None
+    parts = np.array([c.mean(axis=0) for c in np.array_split(f, min(10, len(f)))])
+    cos = parts @ mean / (np.linalg.norm(parts, axis=1) * np.linalg.norm(mean))
+    spread = math.degrees(math.acos(float(np.clip(cos.min(), -1.0, 1.0))))
+    if spread > max_deg:
+        return None
+    g = mean / G0
+    return (f"the specific force stays within {spread:.2g} deg of ({g[0]:.3f}, {g[1]:.3f}, "
+            f"{g[2]:.3f}) g throughout")
+
+
 def _cmd_calibrate(args) -> int:
     import fogcomp
 
@@ -627,12 +956,13 @@ def _cmd_calibrate(args) -> int:
     known = ["ferraris"] + fogcomp.available_methods()
     if method not in known:
         raise LogError(f"calibrate: unknown method {method!r}; available: {', '.join(known)}")
-    out = _Outputs(overwrite=True)          # --out MODEL is what the user asked for
+    _check_calibrate_flags(args)
+    out = _Outputs(args.overwrite, "calibrate")
     model_path = Path(args.out)
     if model_path.suffix == ".json":
         model_path = model_path.with_suffix("")
     manifest = model_path.with_name(model_path.name + ".json")
-    out.target(manifest, (args.log,))
+    out.target(manifest, (args.log,), recognise=_is_model_manifest, what="model file")
     if method == "ferraris":
         return _calibrate_ferraris(args, out, manifest)
     cls = fogcomp.get_method(method)
@@ -658,9 +988,17 @@ def _cmd_calibrate(args) -> int:
     if "temp" in cls.requires or "temp_rate" in cls.requires:
         need += ["temp"]
     log = read_log(args.log, mapping=args.column, channels=need, fs=args.fs,
-                   gaps=args.gaps, time_tolerance=args.time_tolerance, min_samples=16)
+                   gaps=args.gaps, time_tolerance=args.time_tolerance,
+                   min_samples=MIN_RECORD_SAMPLES)
     if header_chans is None:
         axes = sorted(c for c in log.channels if c.startswith("gyro_"))
+    paths = {ch: model_path.with_name(f"{model_path.name}.{ch}") for ch in axes}
+    for ch, p in paths.items():
+        for suffix in (".json", ".npz"):
+            out.target(p.with_name(p.name + suffix), (args.log,), recognise=_is_fogcomp_model,
+                       what="model file")
+    _note(log.describe())
+    attitude = _one_attitude(log) if "g" in cls.requires else None
     ref = None
     if args.reference:
         m = re.fullmatch(r"(.+)_(dps|rps|dph|deg_s|rad_s)", args.reference)
@@ -689,10 +1027,22 @@ def _cmd_calibrate(args) -> int:
         data = fogcomp.GyroData.concatenate(parts) if len(parts) > 1 else parts[0]
         rr = None if r is None else np.concatenate(refs_)
         hp = {"random_state": args.seed} if cls.random else {}
-        models[ch] = fogcomp.make_method(method, **hp).fit(data, rr)
-    paths = {ch: model_path.with_name(f"{model_path.name}.{ch}") for ch in axes}
-    for ch, p in paths.items():
-        out.target(p.with_name(p.name + ".json"), (args.log,))
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            models[ch] = fogcomp.make_method(method, **hp).fit(data, rr)
+        ident = getattr(models[ch], "identifiability_", None)
+        if attitude is not None:
+            rank = f"rank {ident.rank} of {ident.n_terms}" if ident is not None else ""
+            _warning(f"calibrate {method}, {ch}: {args.log} holds one attitude only "
+                     f"({attitude}): from one attitude only the bias is identifiable (the bias "
+                     "and the g-sensitive terms add up to one constant there); the fitted "
+                     "g-sensitivity is not meaningful"
+                     + (f" (the fit's {rank} comes from accelerometer noise alone)"
+                        if rank else "")
+                     + "; calibrate on a record with several attitudes (e.g. six positions)")
+            caught = [w for w in caught if not _is_identifiability(w)]
+        for w in caught:
+            _warning(f"calibrate {method}, {ch}: {w.message}")
     doc = {"format": "fogbench-log-model", "version": 1, "method": method, "fs_hz": log.fs,
            "axes": {ch: {"model": paths[ch].name, "unit": log.units[ch]} for ch in axes},
            "calibration_file": str(args.log)}
@@ -735,6 +1085,7 @@ def _calibrate_ferraris(args, out: _Outputs, manifest: Path) -> int:
     chans = [f"{k}_{a}" for k in ("acc", "gyro") for a in "xyz"]
     log = read_log(args.log, mapping=args.column, channels=chans, fs=args.fs,
                    gaps="refuse", time_tolerance=args.time_tolerance, min_samples=2)
+    _note(log.describe())
     if "part" not in log.frame.columns:
         raise LogError(f"{args.log}: missing column 'part' (x_p, x_a, ..., z_rot), which "
                        "says which position or rotation each row belongs to")
@@ -791,15 +1142,124 @@ def _load_manifest(path) -> tuple[dict, Path]:
     return doc, p
 
 
+#: gzip level of a ``.csv.gz`` output: 1 writes the 10^6-row ADIS log about 5x faster than
+#: the default 9 (pandas' and gzip's) for a file about 1.3x larger.
+GZIP_LEVEL = 1
+_WRITE_CHUNK_ROWS = 100_000
+
+
+def _progress(total: int, desc: str, unit: str, show: bool):
+    """A tqdm bar on stderr, shown only for long work (``show``) on a terminal."""
+    from tqdm import tqdm
+
+    return tqdm(total=total, desc=desc, unit=unit, unit_scale=unit == "row", file=sys.stderr,
+                disable=None if show else True, mininterval=0.5, leave=False)
+
+
+def _write_csv(frame, path, *, gz: bool, progress: bool = False) -> None:
+    """Write ``frame`` as CSV (gzip level :data:`GZIP_LEVEL` when ``gz``), header as the
+    column names, every number in its shortest round-trip form (the input's values come back
+    exactly). pyarrow's CSV writer (about 8x faster than pandas' ``to_csv``) in chunks of
+    100,000 rows with a progress bar; pandas for a frame pyarrow cannot convert, or when
+    pyarrow is not installed."""
+    import contextlib
+    import io
+
+    head = io.StringIO()
+    csv.writer(head, lineterminator="\n").writerow([str(c) for c in frame.columns])
+    try:
+        import pyarrow as pa
+        import pyarrow.csv as pacsv
+    except ImportError:  # pragma: no cover - pyarrow comes with rerun-sdk
+        pa = None
+    table = None
+    if pa is not None:
+        try:
+            table = pa.Table.from_pandas(frame, preserve_index=False)
+        except (pa.ArrowException, TypeError, ValueError):
+            table = None
+    with open(path, "wb") as raw, \
+            (gzip.GzipFile(fileobj=raw, mode="wb", compresslevel=GZIP_LEVEL, mtime=0) if gz
+             else contextlib.nullcontext(raw)) as f, \
+            _progress(len(frame), "writing", "row", progress) as bar:
+        f.write(head.getvalue().encode("utf-8"))
+        if table is not None:
+            writer = pacsv.CSVWriter(f, table.schema,
+                                     write_options=pacsv.WriteOptions(include_header=False))
+            for batch in table.to_batches(max_chunksize=_WRITE_CHUNK_ROWS):
+                writer.write_batch(batch)
+                bar.update(batch.num_rows)
+            writer.close()
+        else:
+            for start in range(0, len(frame), _WRITE_CHUNK_ROWS):
+                chunk = frame.iloc[start:start + _WRITE_CHUNK_ROWS]
+                f.write(chunk.to_csv(index=False, header=False,
+                                     lineterminator="\n").encode("utf-8"))
+                bar.update(len(chunk))
+
+
+#: Significant digits of the columns ``compensate`` adds (as ``%.10g``): a relative
+#: resolution of 5e-10, far below any gyro's noise; the input's columns are written back exactly.
+ADDED_DIGITS = 10
+
+
+def _significant(x, digits: int = ADDED_DIGITS) -> np.ndarray:
+    """``x`` rounded to ``digits`` significant digits (the float nearest to the decimal that
+    ``'%.{digits}g' % x`` prints, so the CSV writer's shortest form has at most ``digits``).
+
+    Parameters
+    ----------
+    x : array_like, shape (n,)
+        Finite or non-finite numbers (zeros and non-finite values are kept as they are).
+    digits : int
+        Significant digits, 1 to 15.
+    """
+    x = np.asarray(x, dtype=float)
+    out = x.copy()
+    ok = np.isfinite(x) & (x != 0)
+    p = digits - 1 - np.floor(np.log10(np.abs(x[ok])))
+    # 10^|p| is an exact double up to 10^22: then one correctly rounded operation gives the
+    # double nearest to the decimal; the rare values beyond that range are formatted one by one.
+    exact = np.abs(p) <= 22
+    v, pe = x[ok][exact], p[exact]
+    pos = pe >= 0
+    r = np.empty_like(v)
+    r[pos] = np.round(v[pos] * 10.0 ** pe[pos]) / 10.0 ** pe[pos]
+    r[~pos] = np.round(v[~pos] / 10.0 ** -pe[~pos]) * 10.0 ** -pe[~pos]
+    sub = out[ok]
+    sub[exact] = r
+    sub[~exact] = [float(f"{q:.{digits}g}") for q in x[ok][~exact]]
+    out[ok] = sub
+    return out
+
+
+def _compensate_target(out: _Outputs, args, protect) -> Path:
+    target = Path(args.out)
+    if target.is_dir():
+        raise LogError(f"--out {target}: is a directory; --out names the output CSV file "
+                       f"(e.g. {target / 'clean.csv'})")
+    if not (target.name.lower().endswith(".csv") or target.name.lower().endswith(".csv.gz")):
+        raise LogError(f"--out {target}: expected a .csv or .csv.gz file name")
+    return out.target(target, tuple(protect), recognise=_is_compensated_csv,
+                      what="compensated CSV (with _comp_ or _cal_ columns)")
+
+
 def _cmd_compensate(args) -> int:
     import pandas as pd
 
     import fogcomp
 
-    out = _Outputs(overwrite=True)            # --out CLEAN.csv is what the user asked for
-    target = out.target(Path(args.out), (args.log,))
+    out = _Outputs(args.overwrite, "compensate")
+    target = _compensate_target(out, args, (args.log,))
     doc, mpath = _load_manifest(args.model)
-    out.target(target, (mpath,))
+    model_files = [mpath]
+    if doc["format"] == "fogbench-log-model" and isinstance(doc.get("axes"), dict):
+        for info in doc["axes"].values():
+            if isinstance(info, dict) and isinstance(info.get("model"), str):
+                stem = mpath.with_name(info["model"])
+                model_files += [stem.with_name(stem.name + ".json"),
+                                stem.with_name(stem.name + ".npz")]
+    _compensate_target(out, args, (args.log, *model_files))
     frame_new = {}
     if doc["format"] == "fogbench-triad-model":
         from fogcomp.calibration import TriadCalibration
@@ -807,16 +1267,14 @@ def _cmd_compensate(args) -> int:
         cal = TriadCalibration.from_dict(doc.get("calibration"), str(mpath))
         cols = doc.get("columns", {})
         chans = [f"{k}_{a}" for k in ("acc", "gyro") for a in "xyz"]
-        mapping = list(args.column or [])
-        mapped = _parse_mapping(mapping)
-        for ch in chans:
-            if ch not in mapped and ch in cols:
-                mapping.append(f"{ch}={cols[ch]['column']}:{cols[ch]['unit']}")
+        from_model = {ch: (cols[ch]["column"], cols[ch]["unit"]) for ch in chans if ch in cols}
         # Applying a triad calibration does not depend on the sample rate: without a time
         # column and --fs the calibration's own rate stands in (it is only reported).
-        log = read_log(args.log, mapping=mapping, channels=chans,
+        log = read_log(args.log, mapping=args.column, channels=chans,
                        fs=args.fs if args.fs else float(doc["fs_hz"]), fs_is_fallback=not args.fs,
-                       gaps=args.gaps, time_tolerance=args.time_tolerance, min_samples=1)
+                       gaps=args.gaps, time_tolerance=args.time_tolerance, min_samples=1,
+                       model_mapping=from_model, model_file=mpath)
+        _note(log.describe())
         for ch in chans:
             if log.units[ch] != cols.get(ch, {}).get("unit", log.units[ch]):
                 raise LogError(f"{args.log}: column {log.sources[ch]!r} is in "
@@ -846,27 +1304,36 @@ def _cmd_compensate(args) -> int:
             need += ["temp"]
         log = read_log(args.log, mapping=args.column, channels=need, fs=args.fs,
                        gaps=args.gaps, time_tolerance=args.time_tolerance, min_samples=2)
+        _note(log.describe())
         if abs(log.fs / float(doc["fs_hz"]) - 1.0) > 1e-6:
             raise LogError(f"{args.log}: sample rate {log.fs:g} Hz differs from the "
                            f"calibration's {doc['fs_hz']:g} Hz ({mpath}); a fitted model is "
                            "tied to its sample rate")
-        for ch, m in models.items():
-            unit = log.units[ch]
-            if unit == "au":
+        for ch in models:
+            if log.units[ch] == "au":
                 raise LogError(f"{args.log}: column {log.sources[ch]!r} is in raw counts")
-            comp = np.empty(log.n)
-            for a, b in log.segments:
-                comp[a:b] = m.compensate(_gyro_data(log, ch, slice(a, b)))
-            frame_new[f"{ch}_comp_{unit}"] = comp / GYRO_UNITS[unit]
+        with _progress(len(models), "compensating", "axis",
+                       log.n >= PROGRESS_MIN_ROWS) as bar:
+            for ch, m in models.items():
+                unit = log.units[ch]
+                comp = np.empty(log.n)
+                with warnings.catch_warnings(record=True) as caught:
+                    warnings.simplefilter("always")
+                    for a, b in log.segments:
+                        comp[a:b] = m.compensate(_gyro_data(log, ch, slice(a, b)))
+                for w in caught:
+                    _warning(f"compensate, {ch}: {w.message}")
+                frame_new[f"{ch}_comp_{unit}"] = comp / GYRO_UNITS[unit]
+                bar.update(1)
     clash = [c for c in frame_new if c in log.frame.columns]
     if clash:
         raise LogError(f"{args.log}: already has column {clash[0]!r}; compensating it again "
                        "would overwrite it")
+    frame_new = {k: _significant(v) for k, v in frame_new.items()}
     result = pd.concat([log.frame, pd.DataFrame(frame_new, index=log.frame.index)], axis=1)
     try:
-        tmp = out.temp(target)
-        result.to_csv(tmp, index=False, float_format="%.10g",
-                      compression="gzip" if target.suffix == ".gz" else None)
+        _write_csv(result, out.temp(target), gz=target.name.lower().endswith(".gz"),
+                   progress=log.n >= PROGRESS_MIN_ROWS)
         out.commit()
     finally:
         out.discard()
@@ -902,9 +1369,10 @@ def add_commands(subparsers) -> None:
                    help="probability content of the curve's interval columns (e.g. 0.95)")
     a.add_argument("--ci", type=float, help="probability content of the computed intervals "
                    "(default 0.683, one sigma)")
-    a.add_argument("--overwrite", action="store_true", help="replace existing output files")
+    a.add_argument("--overwrite", action="store_true", help="replace the outputs of an earlier "
+                   "fogbench allan in --out (recognised by its allan.json; nothing else)")
     _common(a)
-    a.set_defaults(func=_cmd_allan)
+    a.set_defaults(func=_warnings_as_lines(_cmd_allan))
 
     c = subparsers.add_parser("calibrate", help="fit a fogcomp method, or the Ferraris "
                               "six-position + three-rotation triad calibration, on a record")
@@ -915,21 +1383,26 @@ def add_commands(subparsers) -> None:
     c.add_argument("--reference", help="column holding the applied rate (e.g. table_rate_dps)")
     c.add_argument("--rate-dps", type=float, help="constant applied rate, deg/s")
     c.add_argument("--static", action="store_true", help="at rest: the Earth rate is applied")
-    c.add_argument("--latitude-deg", type=float, help="latitude for --static, deg")
+    c.add_argument("--latitude-deg", type=float, help="latitude for --static, deg, -90 to 90")
     c.add_argument("--heading-deg", type=float, help="heading of the x axis for --static, deg "
                    "from north, clockwise")
     c.add_argument("--z-up", action="store_true", help="--static body frame x forward, y left, "
                    "z up (default x forward, y right, z down)")
     c.add_argument("--seed", type=int, help="seed of methods that draw random numbers")
     c.add_argument("--angle-deg", type=float, help="ferraris: angle of each rotation, deg")
-    c.add_argument("--g", type=float, default=G0, help="ferraris: gravity, m/s^2 (default "
-                   "9.80665; imucal uses 9.81)")
+    c.add_argument("--g", type=float, default=G0, help="ferraris: local gravity in m/s^2 (not "
+                   "in g), 9.7 to 9.9 (default 9.80665; imucal uses 9.81)")
+    c.add_argument("--overwrite", action="store_true", help="replace a model written by an "
+                   "earlier fogbench calibrate (recognised by its format key; nothing else)")
     _common(c)
-    c.set_defaults(func=_cmd_calibrate)
+    c.set_defaults(func=_warnings_as_lines(_cmd_calibrate))
 
     m = subparsers.add_parser("compensate", help="apply a model from fogbench calibrate to a log")
     m.add_argument("model", help="MODEL(.json) written by fogbench calibrate")
     m.add_argument("log", help="log CSV")
     m.add_argument("--out", required=True, help="output CSV (.csv or .csv.gz)")
+    m.add_argument("--overwrite", action="store_true", help="replace a CSV written by an "
+                   "earlier fogbench compensate (recognised by its _comp_/_cal_ columns; "
+                   "nothing else, never an input)")
     _common(m)
-    m.set_defaults(func=_cmd_compensate)
+    m.set_defaults(func=_warnings_as_lines(_cmd_compensate))

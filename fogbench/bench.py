@@ -80,10 +80,12 @@ def main(seconds: float = 600.0, repeats: int = 5) -> int:
     print(f"  spread (min..max): bare {min(bare) / 1e6:.3f}..{max(bare) / 1e6:.3f}, "
           f"rig {min(rig) / 1e6:.3f}..{max(rig) / 1e6:.3f}, "
           f"fog {min(fog) / 1e6:.3f}..{max(fog) / 1e6:.3f} M/s")
-    from .bench_allan import bench_allan
+    from .bench_allan import bench_allan, bench_compensate_write
 
     print()
     bench_allan(n=10**7, repeats=min(repeats, 3))
+    print()
+    bench_compensate_write(repeats=min(repeats, 3))
     from .bench_methods import main as bench_methods
 
     print()

@@ -338,6 +338,9 @@ def main(argv=None) -> int:
     except (ScenarioError, ValueError, FileNotFoundError) as exc:
         print(f"fogbench: error: {exc}", file=sys.stderr)
         return 2
+    except BrokenPipeError:  # `fogbench allan ... | head`: the reader left; not an error of ours
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141
     except OSError as exc:  # a full disk, a permission: one line naming the file, not a traceback
         where = f" ({exc.filename})" if getattr(exc, "filename", None) else ""
         print(f"fogbench: error: {exc.strerror or exc}{where}", file=sys.stderr)

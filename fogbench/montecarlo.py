@@ -60,7 +60,15 @@ def replicate_task(task: tuple) -> dict:
     the table's motion, simulated once by the main process and reused by every replicate."""
     from .runner import run_scenario
 
-    path, r, k, methods, truths = task
+    path, digest, r, k, methods, truths = task
+    try:
+        now = scenario_digest(Path(path).read_bytes().decode("utf-8", "replace"))
+    except OSError as exc:
+        raise MonteCarloError(f"{path}: cannot read the scenario file on this worker "
+                              f"({exc.strerror}); the workers need it at the same path") from None
+    if now != digest:
+        raise MonteCarloError(f"{path}: the scenario file changed during the run; replicate "
+                              f"{r} was not computed (its results would mix two versions)")
     t0 = time.perf_counter()
     res = run_scenario(path, replicate=r, method_seeds=k, methods=methods, truths=dict(truths))
     return replicate_doc(res, time.perf_counter() - t0)
@@ -413,6 +421,7 @@ class ScenarioMC:
         self.methods = methods
         self.seed = scenario_seed(self.sc, self.plan)
         self.work = WorkDir(out, self.sc, self.K, methods)
+        self.digest = scenario_digest(Path(self.path).read_bytes().decode("utf-8", "replace"))
         self.done = self.work.open(resume)
         self.resumed = sorted(self.done)
         self.todo = [r for r in range(1, self.R) if r not in self.done]
@@ -446,8 +455,8 @@ class ScenarioMC:
         completes, whatever the main process is doing, so a killed run keeps every finished
         replicate. ``on_done(ok)`` is called after each (e.g. a progress bar)."""
         for r in self.todo:
-            fut = executor.submit(replicate_task,
-                                  (self.path, r, self.K, self.methods, self.truths))
+            fut = executor.submit(replicate_task, (self.path, self.digest, r, self.K,
+                                                   self.methods, self.truths))
             self.futures[fut] = r
             fut.add_done_callback(lambda f, cb=on_done: self._store(f, cb))
 

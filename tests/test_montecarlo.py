@@ -77,6 +77,12 @@ def scn(tmp_path):
     return p
 
 
+def _digest(p):
+    from fogbench.montecarlo import scenario_digest
+
+    return scenario_digest(p.read_bytes().decode("utf-8", "replace"))
+
+
 def run_mc(path, out, executor_cm, **kw):
     mc = ScenarioMC(path, out, **kw)
     with executor_cm as ex:
@@ -107,7 +113,7 @@ def test_aggregate_is_identical_serial_two_processes_and_dask(scn, tmp_path):
 def test_a_replicate_depends_only_on_its_index(scn, tmp_path):
     """Replicate 3 computed alone, first, equals replicate 3 of a whole run; replicates differ."""
     mc, _ = run_mc(scn, tmp_path / "all", contextlib.nullcontext(SerialExecutor()))
-    alone = replicate_task((str(scn), 3, 1, None, {}))  # no cached table motion either
+    alone = replicate_task((str(scn), _digest(scn), 3, 1, None, {}))  # no cached table motion either
     whole = mc.done[3]
 
     def metric(doc, r):
@@ -125,7 +131,7 @@ def test_resume_skips_completed_replicates_and_gives_the_same_aggregate(scn, tmp
     out = tmp_path / "killed"
     first = ScenarioMC(scn, out)
     first.run_first()
-    first.work.write(replicate_task((str(scn), 2, 1, None, {})))
+    first.work.write(replicate_task((str(scn), _digest(scn), 2, 1, None, {})))
     again = ScenarioMC(scn, out, resume=True)
     assert again.todo == [1, 3] and again.resumed == [0, 2]
     # without --resume the kept replicates are neither used nor deleted: refused, naming them
@@ -228,3 +234,10 @@ def test_bad_montecarlo_table_is_refused_at_load(scn, bad, words):
     scn.write_text(scn.read_text().replace("replicates = 4", bad))
     code, err = _cli("check", scn)
     assert code == 2 and "[montecarlo]" in err and words in err and str(scn) in err
+
+
+def test_a_scenario_edited_during_the_run_is_not_mixed_in(scn):
+    digest = _digest(scn)
+    scn.write_text(scn.read_text().replace("seed = 12", "seed = 99"))
+    with pytest.raises(MonteCarloError, match="changed during the run"):
+        replicate_task((str(scn), digest, 1, 1, None, {}))

@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import io
 import json
+import math
 import platform
 from pathlib import Path
 
@@ -57,6 +58,19 @@ __all__ = ["atomic_write_bytes", "atomic_write_text", "write_run", "read_run", "
 
 def atomic_write_text(path: Path, text: str) -> None:
     atomic_write_bytes(path, text.encode())
+
+
+def json_ready(v):
+    """``v`` with numpy scalars made Python numbers and non-finite floats made None (JSON)."""
+    if isinstance(v, float) and not math.isfinite(v):
+        return None
+    if isinstance(v, dict):
+        return {k: json_ready(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [json_ready(x) for x in v]
+    if isinstance(v, np.generic):
+        return json_ready(v.item())
+    return v
 
 
 def versions() -> dict:

@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from . import stats as S
-from .io import atomic_write_text, versions
+from .io import atomic_write_text, json_ready, versions
 from .outdir import MARKER, OutDirError, _alive
 
 __all__ = ["MonteCarloError", "replicate_task", "replicate_doc", "aggregate", "WorkDir",
@@ -88,16 +88,7 @@ def replicate_doc(res, wall_s: float) -> dict:
             "wall_s": wall_s, "protocols": prots}
 
 
-def _clean(v):
-    if isinstance(v, float) and not math.isfinite(v):
-        return None
-    if isinstance(v, dict):
-        return {k: _clean(x) for k, x in v.items()}
-    if isinstance(v, (list, tuple)):
-        return [_clean(x) for x in v]
-    if isinstance(v, np.generic):
-        return _clean(v.item())
-    return v
+_clean = json_ready
 
 
 # ---------------------------------------------------------------------------------------------

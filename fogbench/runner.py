@@ -27,7 +27,7 @@ from sim.rig import RunData, simulate_run
 from sim.thermal import ThermalHold
 
 from .executor import replicate_seed
-from .io import atomic_write_text, versions
+from .io import atomic_write_text, json_ready, versions
 from .scenario import (RUNNER_SECTIONS, Plan, Protocol, Scenario, Selection, expand, load_plan,
                        load_scenario, select_indices)
 
@@ -438,15 +438,4 @@ def _metrics_doc(sc, plan, data, scored, fits, wall) -> dict:
 
 
 def write_metrics(path: Path, doc: dict) -> None:
-    def clean(v):
-        if isinstance(v, float) and not math.isfinite(v):
-            return None
-        if isinstance(v, dict):
-            return {k: clean(x) for k, x in v.items()}
-        if isinstance(v, (list, tuple)):
-            return [clean(x) for x in v]
-        if isinstance(v, np.generic):
-            return clean(v.item())
-        return v
-
-    atomic_write_text(path, json.dumps(clean(doc), indent=2))
+    atomic_write_text(path, json.dumps(json_ready(doc), indent=2))

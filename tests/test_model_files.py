@@ -95,7 +95,7 @@ def npz_with(npath, **changes):
     return buf.getvalue()
 
 
-def refused(stem, *fragments):
+def assert_refused(stem, *fragments):
     with pytest.raises(ModelFileError) as info:
         fogcomp.load_model(stem)
     msg = str(info.value)
@@ -108,41 +108,41 @@ def refused(stem, *fragments):
 def test_a_learned_number_multiplied_by_1000_in_the_json_is_refused(tmp_path):
     stem, jpath, _ = saved(tmp_path, "bp")
     edit_json(jpath, lambda d: d["state"].__setitem__("y_half_", d["state"]["y_half_"] * 1000))
-    refused(stem, str(jpath), "'sha256'", "edited")
+    assert_refused(stem, str(jpath), "'sha256'", "edited")
 
 
 def test_a_hyperparameter_edited_in_the_json_is_refused(tmp_path):
     stem, jpath, _ = saved(tmp_path, "flnn_lstsq")
     edit_json(jpath, lambda d: d["hyperparameters"].__setitem__("rcond", 0.5))
-    refused(stem, str(jpath), "'sha256'")
+    assert_refused(stem, str(jpath), "'sha256'")
 
 
 def test_the_array_manifest_or_npz_checksum_edited_in_the_json_is_refused(tmp_path):
     stem, jpath, npath = saved(tmp_path, "flnn_lstsq")
     edit_json(jpath, lambda d: d["arrays"]["coef"].__setitem__("shape", [3]))
-    refused(stem, str(jpath), "'sha256'")
+    assert_refused(stem, str(jpath), "'sha256'")
     stem, jpath, npath = saved(tmp_path, "flnn_lstsq")
     edit_json(jpath, lambda d: d.__setitem__("arrays_sha256", "0" * 64))
-    refused(stem, str(jpath), "'sha256'")
+    assert_refused(stem, str(jpath), "'sha256'")
 
 
 def test_a_modified_npz_is_refused_by_its_checksum(tmp_path):
     stem, _, npath = saved(tmp_path, "flnn_lstsq")
     npath.write_bytes(npz_with(npath, coef=np.zeros(10)))
-    refused(stem, str(npath), "checksum", "arrays_sha256")
+    assert_refused(stem, str(npath), "checksum", "arrays_sha256")
 
 
 # -- damaged files ------------------------------------------------------------------------------
 def test_a_json_of_random_bytes_is_refused_not_a_unicode_error(tmp_path):
     stem, jpath, _ = saved(tmp_path)
     jpath.write_bytes(b"\xff\xfe" + np.random.default_rng(0).bytes(500))
-    refused(stem, str(jpath), "not UTF-8")
+    assert_refused(stem, str(jpath), "not UTF-8")
     jpath.write_bytes(b"model: 1, \x01\x02 not json")
-    refused(stem, str(jpath), "not valid JSON")
+    assert_refused(stem, str(jpath), "not valid JSON")
     jpath.write_text("[1, 2, 3]")
-    refused(stem, str(jpath), "JSON object")
+    assert_refused(stem, str(jpath), "JSON object")
     jpath.write_text("[" * 100_000)
-    refused(stem, str(jpath))
+    assert_refused(stem, str(jpath))
 
 
 def test_a_truncated_npz_with_a_forged_checksum_is_refused_not_a_bad_zip_file(tmp_path):
@@ -150,15 +150,15 @@ def test_a_truncated_npz_with_a_forged_checksum_is_refused_not_a_bad_zip_file(tm
     blob = npath.read_bytes()
     for cut in (len(blob) // 2, 10, 0):
         forge(jpath, blob[:cut])
-        refused(stem, str(npath), ".npz")
+        assert_refused(stem, str(npath), ".npz")
     # random bytes: np.load would take them for a pickle
     forge(jpath, b"\x80\x04" + np.random.default_rng(1).bytes(300))
-    refused(stem, str(npath), "without pickle")
+    assert_refused(stem, str(npath), "without pickle")
     # a single .npy instead of an archive
     buf = io.BytesIO()
     np.save(buf, np.zeros(3))
     forge(jpath, buf.getvalue())
-    refused(stem, str(npath))
+    assert_refused(stem, str(npath))
 
 
 def test_an_npz_member_with_a_corrupted_body_is_refused(tmp_path):
@@ -167,13 +167,13 @@ def test_an_npz_member_with_a_corrupted_body_is_refused(tmp_path):
     start = blob.find(b"coef.npy") + len(b"coef.npy") + 100  # inside the member's data
     blob[start:start + 8] = b"\x00" * 8
     forge(jpath, bytes(blob))
-    refused(stem, str(npath), "BadZipFile")   # the zip's own CRC catches it
+    assert_refused(stem, str(npath), "BadZipFile")   # the zip's own CRC catches it
 
 
 def test_an_array_of_the_wrong_shape_is_refused_at_load(tmp_path):
     stem, jpath, npath = saved(tmp_path, "flnn_lstsq")
     forge(jpath, npz_with(npath, coef=np.zeros(9)))
-    refused(stem, str(npath), "'coef'", "shape (9,)", "(10,)")
+    assert_refused(stem, str(npath), "'coef'", "shape (9,)", "(10,)")
 
 
 def test_a_wrong_shape_consistent_with_a_forged_manifest_fails_the_probe_at_load(tmp_path):
@@ -187,38 +187,38 @@ def test_a_wrong_shape_consistent_with_a_forged_manifest_fails_the_probe_at_load
         npath.write_bytes(npz_with(npath, **{key: value}))
         edit_json(jpath, lambda d: d["arrays"][key].__setitem__("shape", list(value.shape)))
         forge(jpath)
-        refused(stem, str(jpath), "cannot compensate", "inconsistent")
+        assert_refused(stem, str(jpath), "cannot compensate", "inconsistent")
 
 
 def test_a_nan_learned_weight_behind_forged_checksums_is_refused(tmp_path):
     stem, jpath, npath = saved(tmp_path, "flnn_lstsq")
     coef = np.full(10, np.nan)
     forge(jpath, npz_with(npath, coef=coef))
-    refused(stem, str(jpath), "non-finite")
+    assert_refused(stem, str(jpath), "non-finite")
 
 
 def test_a_deleted_state_key_is_refused_not_a_key_error(tmp_path):
     stem, jpath, _ = saved(tmp_path, "bp")
     edit_json(jpath, lambda d: d["state"].pop("n_epochs_"))
     forge(jpath)
-    refused(stem, str(jpath), "'state'", "'n_epochs_'", "missing")
+    assert_refused(stem, str(jpath), "'state'", "'n_epochs_'", "missing")
 
 
 def test_a_deleted_array_is_refused_not_a_key_error(tmp_path):
     stem, jpath, npath = saved(tmp_path, "bp")
     forge(jpath, npz_with(npath, params=None))
-    refused(stem, str(npath), "'params'", "missing")
+    assert_refused(stem, str(npath), "'params'", "missing")
     # and with the manifest forged to match: the method's own lookup names it
     edit_json(jpath, lambda d: d["arrays"].pop("params"))
     forge(jpath)
-    refused(stem, str(npath), "array 'params' is missing")
+    assert_refused(stem, str(npath), "array 'params' is missing")
 
 
 def test_a_state_value_of_the_wrong_type_is_refused(tmp_path):
     stem, jpath, _ = saved(tmp_path, "bp")
     edit_json(jpath, lambda d: d["state"].__setitem__("n_epochs_", "many"))
     forge(jpath)
-    refused(stem, str(jpath), "'state'", "many")
+    assert_refused(stem, str(jpath), "'state'", "many")
 
 
 @pytest.mark.parametrize("name, key, value", [
@@ -236,31 +236,31 @@ def test_a_hyperparameter_of_the_wrong_type_or_value_is_refused_on_load(tmp_path
     jpath = tmp_path / "m.json"
     edit_json(jpath, lambda d: d["hyperparameters"].__setitem__(key, value))
     forge(jpath)
-    refused(stem, str(jpath), "'hyperparameters'", key)
+    assert_refused(stem, str(jpath), "'hyperparameters'", key)
 
 
 def test_a_missing_or_unknown_hyperparameter_is_refused_on_load(tmp_path):
     stem, jpath, _ = saved(tmp_path, "bp")
     edit_json(jpath, lambda d: d["hyperparameters"].pop("hidden_size"))
     forge(jpath)
-    refused(stem, str(jpath), "lacks ['hidden_size']")
+    assert_refused(stem, str(jpath), "lacks ['hidden_size']")
     stem, jpath, _ = saved(tmp_path, "bp")
     edit_json(jpath, lambda d: d["hyperparameters"].__setitem__("hidden_units", 3))
     forge(jpath)
-    refused(stem, str(jpath), "unknown hyperparameter", "hidden_units")
+    assert_refused(stem, str(jpath), "unknown hyperparameter", "hidden_units")
 
 
 def test_wrong_types_of_the_header_keys_are_refused(tmp_path):
     stem, jpath, _ = saved(tmp_path)
     edit_json(jpath, lambda d: d.__setitem__("state", [1, 2]))
-    refused(stem, str(jpath), "key 'state' must be a JSON object")
+    assert_refused(stem, str(jpath), "key 'state' must be a JSON object")
     stem, jpath, _ = saved(tmp_path)
     edit_json(jpath, lambda d: d.pop("sha256"))
-    refused(stem, str(jpath), "missing key 'sha256'")
+    assert_refused(stem, str(jpath), "missing key 'sha256'")
     stem, jpath, _ = saved(tmp_path)
     edit_json(jpath, lambda d: d.__setitem__("method", "nope"))
     forge(jpath)
-    refused(stem, str(jpath), "unknown method 'nope'")
+    assert_refused(stem, str(jpath), "unknown method 'nope'")
 
 
 def test_a_model_saved_by_the_version_1_format_is_refused_with_a_version_message(tmp_path):
@@ -270,18 +270,18 @@ def test_a_model_saved_by_the_version_1_format_is_refused_with_a_version_message
     old = {k: doc[k] for k in ("format", "method", "hyperparameters", "state", "arrays_sha256")}
     old["version"] = 1
     jpath.write_text(json.dumps(old, indent=2))
-    msg = refused(stem, str(jpath), "'version' is 1", "reads version 2")
+    msg = assert_refused(stem, str(jpath), "'version' is 1", "reads version 2")
     assert "older" in msg and "fit the method again" in msg
     edit_json(jpath, lambda d: d.__setitem__("version", 99))
-    msg = refused(stem, "'version' is 99")
+    msg = assert_refused(stem, "'version' is 99")
     assert "older" not in msg
 
 
 def test_missing_files_are_refused(tmp_path):
     stem, jpath, npath = saved(tmp_path)
     os.unlink(npath)
-    refused(stem, str(npath), "not found")
-    refused(tmp_path / "absent", "not found")
+    assert_refused(stem, str(npath), "not found")
+    assert_refused(tmp_path / "absent", "not found")
 
 
 # -- the round trip, as a property --------------------------------------------------------------

@@ -344,7 +344,7 @@ def test_check_params_is_a_no_op_for_a_method_without_validate():
         def __init__(self, k=1):
             self.k = k
 
-    Plain(k="anything").check_params()
+    assert Plain(k="anything").check_params() is None  # no _validate: nothing to refuse
 
 
 # -- GyroData: booleans and complex numbers are not rates ------------------------------------------

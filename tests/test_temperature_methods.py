@@ -229,6 +229,64 @@ def test_lm_fits_a_network_it_can_represent_to_the_goal():
     assert net_loss_grad(th, x, t, 9)[0] > 1e-8
 
 
+def _train_lm_slow(theta, x, t, H, max_epochs, goal):
+    """The obvious twin of ``train_lm``: the Jacobian row by row from the chain rule in the
+    (n, P) layout, a fresh forward pass for every quantity, ``solve(J^T J + mu I, J^T e)``;
+    MATLAB trainlm's mu schedule (x0.1 on success, x10 on failure, stop above 1e10)."""
+    theta = np.array(theta, dtype=float)
+    n = t.size
+
+    def jac(th):
+        W1 = th[:2 * H].reshape(H, 2)
+        b1, W2 = th[2 * H:3 * H], th[3 * H:4 * H]
+        h = np.tanh(x @ W1.T + b1)
+        d = (1 - h ** 2) * W2
+        J = np.column_stack([(d[:, j:j + 1] * x) for j in range(H)] + [d, h, np.ones(n)])
+        return J
+
+    def mse(th):
+        return float(np.mean((net_forward(th, x, H) - t) ** 2))
+
+    mu, losses, stop = 1e-3, [mse(theta)], "epochs"
+    for _ in range(max_epochs):
+        if losses[-1] <= goal:
+            return theta, np.array(losses), "goal"
+        J = jac(theta)
+        e = net_forward(theta, x, H) - t
+        if 2 * np.linalg.norm(J.T @ e) / n < 1e-7:
+            return theta, np.array(losses), "min_grad"
+        while mu <= 1e10:
+            cand = theta - np.linalg.solve(J.T @ J + mu * np.eye(theta.size), J.T @ e)
+            if mse(cand) < losses[-1]:
+                break
+            mu *= 10
+        if mu > 1e10:
+            return theta, np.array(losses), "mu_max"
+        theta, mu = cand, mu * 0.1
+        losses.append(mse(theta))
+    return theta, np.array(losses), "goal" if losses[-1] <= goal else stop
+
+
+@pytest.mark.parametrize("seed,n,goal", [(0, 300, 0.0), (1, 516, 0.0), (2, 200, 1e-3)])
+def test_lm_follows_its_slow_twin(seed, n, goal):
+    """The in-place, one-tanh-per-trial ``train_lm`` takes the same steps as the plain
+    textbook loop above: the same losses epoch by epoch and the same weights (to rounding,
+    over 300 epochs), and stops for the same reason."""
+    from fogcomp.methods.temperature import train_lm
+
+    rng = np.random.default_rng(seed)
+    x = rng.uniform(-1, 1, (n, 2))
+    t = np.tanh(2 * x[:, 0]) * x[:, 1] + 0.1 * rng.standard_normal(n)
+    t /= np.abs(t).max()
+    theta0 = rng.uniform(-1, 1, 37)
+    fast = train_lm(theta0, x, t, 9, max_epochs=300, goal=goal)
+    slow = _train_lm_slow(theta0, x, t, 9, max_epochs=300, goal=goal)
+    assert fast[2] == slow[2]
+    assert fast[1].shape == slow[1].shape
+    np.testing.assert_allclose(fast[1], slow[1], rtol=1e-7)
+    np.testing.assert_allclose(fast[0], slow[0], rtol=1e-5, atol=1e-7)
+
+
 @pytest.mark.parametrize("name", ["bp", "aco_bp"])
 def test_training_lm_on_the_method(name):
     """``training="lm"`` on the smooth law: the held-out RMSE falls from ~10 % of the target's

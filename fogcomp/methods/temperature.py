@@ -31,7 +31,10 @@ References
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+from scipy.linalg.lapack import dgesv as _dgesv
 
 from ..base import Compensator, DivergenceError, GyroData, register
 from ..units import DPH
@@ -243,20 +246,6 @@ def _loss_grad_t(theta, xT, t, H):
     return loss, np.concatenate([gW1.ravel(), gb1, gW2, [gb2]])
 
 
-def _jacobian_t(theta, xT, H):
-    """Outputs y, shape (n,), and the Jacobian dy/dtheta transposed, shape (P, n)."""
-    h, W1, W2, b2 = _hidden_t(theta, xT, H)
-    m, n = xT.shape
-    y = W2 @ h + b2
-    d = (1.0 - h * h) * W2[:, None]                 # dy/db1, (H, n)
-    JT = np.empty((n_params(H, m), n))
-    JT[:H * m].reshape(H, m, n)[:] = d[:, None, :] * xT[None, :, :]
-    JT[H * m:H * m + H] = d
-    JT[H * m + H:H * m + 2 * H] = h
-    JT[-1] = 1.0
-    return y, JT
-
-
 #: MATLAB ``trainlm`` defaults (Neural Network Toolbox): initial mu, its decrease and increase
 #: factors, the mu at which training stops, and the gradient norm at which it stops.
 LM_MU, LM_MU_DEC, LM_MU_INC, LM_MU_MAX, LM_MIN_GRAD = 1e-3, 0.1, 10.0, 1e10, 1e-7
@@ -304,35 +293,57 @@ def train_lm(theta, x, t, hidden_size, max_epochs=1000, goal=1e-5):
     """
     H = int(hidden_size)
     xT = np.ascontiguousarray(np.asarray(x, dtype=float).T)
+    m, n = xT.shape
     t = np.asarray(t, dtype=float)
     theta = np.asarray(theta, dtype=float).copy()
-    n = t.size
     P = theta.size
-    mu = LM_MU
-    y, JT = _jacobian_t(theta, xT, H)
-    e = y - t
+    iw, ib, iv = H * m, H * m + H, H * m + 2 * H       # ends of W1, b1, W2 in theta
+    # J^T, shape (P, n), filled in place each epoch from the hidden outputs the accepted step
+    # already computed (one tanh per trial step, none for the Jacobian); J^T J is most of an
+    # epoch's cost (37 x 37 x n multiply-adds).
+    JT = np.empty((P, n))
+    JT[-1] = 1.0                                     # dy/db2
+    JW1 = JT[:iw].reshape(H, m, n)                   # dy/dW1[j, i] = (1 - h_j^2) W2_j x_i
+    Jb1, JW2 = JT[iw:ib], JT[ib:iv]                  # dy/db1[j] = (1 - h_j^2) W2_j; dy/dW2 = h
+    diag = np.arange(P) * (P + 1)
+
+    def hidden(th):
+        z = th[:iw].reshape(H, m) @ xT
+        z += th[iw:ib, None]
+        return np.tanh(z, out=z)
+
+    h = hidden(theta)
+    e = theta[ib:iv] @ h
+    e += theta[-1] - t
     loss = float(e @ e) / n
     losses = [loss]
     stop = "epochs"
-    eye = np.eye(P)
+    mu = LM_MU
     for _ in range(int(max_epochs)):
         if loss <= goal:
             stop = "goal"
             break
+        np.multiply(h, h, out=Jb1)
+        np.subtract(1.0, Jb1, out=Jb1)
+        Jb1 *= theta[ib:iv, None]
+        np.multiply(Jb1[:, None, :], xT[None, :, :], out=JW1)
+        JW2[:] = h
         JtJ = JT @ JT.T
         Jte = JT @ e
-        if 2.0 * float(np.linalg.norm(Jte)) / n < LM_MIN_GRAD:
+        if 2.0 * math.sqrt(float(Jte @ Jte)) / n < LM_MIN_GRAD:
             stop = "min_grad"
             break
         while True:
-            try:
-                step = np.linalg.solve(JtJ + mu * eye, Jte)
-            except np.linalg.LinAlgError:
-                step = None
-            if step is not None:
+            A = JtJ.copy()
+            A.flat[diag] += mu
+            # LAPACK's LU solve, as numpy.linalg.solve, without its per-call checks (a third
+            # of an epoch on a few hundred samples); info > 0: singular, raise mu
+            step, info = _dgesv(A, Jte, overwrite_a=1)[2:]
+            if info == 0:
                 cand = theta - step
-                h, _, W2, b2 = _hidden_t(cand, xT, H)
-                e2 = W2 @ h + b2 - t
+                h2 = hidden(cand)
+                e2 = cand[ib:iv] @ h2
+                e2 += cand[-1] - t
                 loss2 = float(e2 @ e2) / n
                 if np.isfinite(loss2) and loss2 < loss:
                     break
@@ -342,11 +353,8 @@ def train_lm(theta, x, t, hidden_size, max_epochs=1000, goal=1e-5):
         if mu > LM_MU_MAX:
             stop = "mu_max"
             break
-        theta = cand
+        theta, h, e, loss = cand, h2, e2, loss2
         mu *= LM_MU_DEC
-        y, JT = _jacobian_t(theta, xT, H)
-        e = y - t
-        loss = float(e @ e) / n
         losses.append(loss)
     else:
         if loss <= goal:

@@ -255,6 +255,63 @@ def _improvement(docs, prot, runs, better, than, metric) -> np.ndarray:
         return 100.0 * (1.0 - a / b)
 
 
+def _seed_values(doc: dict, prot: str, runs: list[str], label: str, metric: str):
+    """Per method seed k of one replicate: the metric's mean over ``runs`` (the K fits of a
+    protocol are the same K models on every scored run), shape (K,); None without seeds."""
+    seeds = doc["protocols"].get(prot, {}).get("seeds", {})
+    per_run = []
+    for r in runs:
+        ms = seeds.get(r, {}).get(label)
+        if not ms:
+            return None
+        per_run.append([m.get(metric) if isinstance(m, dict) and _is_num(m.get(metric))
+                        else math.nan for m in ms])
+    if len({len(v) for v in per_run}) != 1:
+        return None
+    return np.mean(np.asarray(per_run, dtype=float), axis=0)
+
+
+def p_better(a: np.ndarray, b: np.ndarray, better: str = "lower") -> float:
+    """Probability that a start of A beats a start of B drawn independently (ties count half):
+    the mean over all K_a x K_b pairs of 1[a_i better than b_j] (the Mann-Whitney statistic
+    over K_a K_b). NaN (failed fits) are left out; NaN when either side has none."""
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    a, b = a[np.isfinite(a)], b[np.isfinite(b)]
+    if not a.size or not b.size:
+        return math.nan
+    d = a[:, None] - b[None, :]
+    if better == "higher":
+        d = -d
+    return float(np.mean((d < 0) + 0.5 * (d == 0)))
+
+
+def _over_seeds(docs, prot: str, runs: list[str], better: str, than: str, metric: str):
+    """A claim between two seeded methods over their method starts: the pooled distribution
+    of each (median, 5 and 95 % quantiles over replicates x seeds) and P(a start of ``better``
+    beats a start of ``than`` in the same replicate), summarised over replicates; None when
+    either method has no seeds."""
+    direction = "higher" if metric.endswith("_pct") else "lower"
+    ps, pooled = [], {better: [], than: []}
+    for d in docs:
+        a = _seed_values(d, prot, runs, better, metric)
+        b = _seed_values(d, prot, runs, than, metric)
+        if a is None or b is None:
+            return None
+        ps.append(p_better(a, b, direction))
+        pooled[better].extend(a.tolist())
+        pooled[than].extend(b.tolist())
+    out = {"p_better_start": S.summarize(ps).as_dict(), "seeds_per_replicate": None}
+    for lab, vals in pooled.items():
+        v = np.asarray(vals, dtype=float)
+        v = v[np.isfinite(v)]
+        out[lab] = ({"median": float(np.median(v)), "q05": float(np.quantile(v, 0.05)),
+                     "q95": float(np.quantile(v, 0.95)), "n": int(v.size)} if v.size else None)
+    ks = {len(_seed_values(d, prot, runs, better, metric)) for d in docs}
+    out["seeds_per_replicate"] = ks.pop() if len(ks) == 1 else None
+    return out
+
+
 def aggregate(docs: list[dict], sc, plan) -> dict:
     """The replicate distributions of every metric, claim and ranking (see the module doc)."""
     import fogcomp
@@ -350,7 +407,9 @@ def aggregate(docs: list[dict], sc, plan) -> dict:
                            "max_pct": c.max_pct, **v.as_dict(),
                            "oracle_improvement": S.summarize(ovals).as_dict(),
                            "oracle_bounds_claim": oracle_bounds,
-                           "paired": pair.as_dict()})
+                           "paired": pair.as_dict(),
+                           "over_seeds": _over_seeds(docs, prot.name, runs, c.better, c.than,
+                                                     c.metric)})
 
     rankings = []
     groups: dict = {}

@@ -889,7 +889,8 @@ def render_montecarlo(res: ScenarioResult, mc: dict, fig_names: dict) -> str:
                      f"{'–' if first is None else f'{100 * first:.0f} %'} of replicates. "
                      f"Oracle over {c['than']}: {_ci_text(osm, '_pct')} %"
                      + ("" if c["oracle_bounds_claim"] else
-                        f" (not a bound here: {c['better']} also filters noise)") + ".")
+                        f" (not a bound here: {c['better']} also filters noise)") + "."
+                     + over_seeds_text(c))
         L.append("")
     if mc["rankings"]:
         L += ["### Rankings against the papers' tables", "",
@@ -951,6 +952,36 @@ def render_montecarlo(res: ScenarioResult, mc: dict, fig_names: dict) -> str:
         L += [f"![distributions over replicates]({fig_names[('replicates',)]})", ""]
     L += render_bands(res, mc)
     return "\n".join(L)
+
+
+def p_better_text(p: dict) -> str:
+    """``mean [lo, hi]`` of a probability over replicates, the t-interval clipped to [0, 1]."""
+    if not p or not p.get("n"):
+        return "not computed"
+    txt = f"{p['mean']:.2f}"
+    if p.get("ci_low") is not None and p.get("ci_high") is not None:
+        txt += f" [{max(0.0, p['ci_low']):.2f}, {min(1.0, p['ci_high']):.2f}]"
+    return txt
+
+
+def over_seeds_text(c: dict) -> str:
+    """The claim between two seeded methods over their method starts (empty without seeds)."""
+    o = c.get("over_seeds")
+    if not o or o.get(c["better"]) is None or o.get(c["than"]) is None:
+        return ""
+    m = c["metric"]
+
+    def dist(lab):
+        d = o[lab]
+        return f"{lab} {fmt(d['median'], m)} [{fmt(d['q05'], m)}, {fmt(d['q95'], m)}]"
+
+    k = o.get("seeds_per_replicate")
+    p = o["p_better_start"]
+    ptxt = p_better_text(p)
+    return (f" Over method starts ({k if k else 'K'} per replicate; median [5 %, 95 %] of "
+            f"{m} over replicates x starts): {dist(c['better'])}, {dist(c['than'])}; a start "
+            f"of {c['better']} beats a start of {c['than']} with probability "
+            f"{ptxt} (0.5: no difference).")
 
 
 def render_bands(res: ScenarioResult, mc: dict | None) -> list[str]:

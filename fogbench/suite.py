@@ -15,7 +15,7 @@ from .io import atomic_write_text
 from .montecarlo import MonteCarloError, ScenarioMC
 from .outdir import OutDirError, check_out_dir
 from .progress import Progress
-from .report import write_run_dir
+from .report import p_better_text, write_run_dir
 from .scenario import RUNNER_SECTIONS, ScenarioError, load_plan, load_scenario
 
 __all__ = ["run_suite", "check_bounds", "summary_markdown"]
@@ -103,6 +103,16 @@ def _mean_over_runs(prot: dict, label: str, metric: str):
         if isinstance(v, (int, float)) and math.isfinite(v):
             vals.append(v)
     return sum(vals) / len(vals) if vals else None
+
+
+def _start_text(c: dict) -> str:
+    """", a start of A beats one of B with probability p [CI]" for two seeded methods."""
+    o = c.get("over_seeds")
+    if not o:
+        return ""
+    return (f"; over {o.get('seeds_per_replicate') or 'K'} method starts per replicate, a "
+            f"start of {c['better']} beats one of {c['than']} with probability "
+            f"{p_better_text(o['p_better_start'])}")
 
 
 def _claims(plan, doc) -> list[str]:
@@ -236,7 +246,7 @@ def summary_markdown(results: list[dict], plans: dict, out: Path, violations: li
                              f"**{c['verdict']}** (held in {held} of replicates; oracle "
                              f"{_ci_text(c['oracle_improvement'], '_pct')} %"
                              + ("" if c["oracle_bounds_claim"] else ", not a bound for a filter")
-                             + ").")
+                             + ")" + _start_text(c) + ".")
                 L.append("")
             if mc["rankings"]:
                 L += ["Rankings against the paper's table:", ""]

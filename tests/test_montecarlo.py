@@ -241,3 +241,53 @@ def test_a_scenario_edited_during_the_run_is_not_mixed_in(scn):
     scn.write_text(scn.read_text().replace("seed = 12", "seed = 99"))
     with pytest.raises(MonteCarloError, match="changed during the run"):
         replicate_task((str(scn), digest, 1, 1, None, {}))
+
+
+# ---------------------------------------------------------------------------------------------
+# Claims between two seeded methods, over their method starts (issue 12)
+def test_p_better_is_the_mann_whitney_probability():
+    """P(a start of A beats a start of B) against scipy's Mann-Whitney U / (K_a K_b), ties
+    included, for both directions of 'better'."""
+    from scipy.stats import mannwhitneyu
+
+    from fogbench.montecarlo import p_better
+
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        a = np.round(rng.normal(0.0, 1.0, rng.integers(2, 25)), 1)     # rounded: ties occur
+        b = np.round(rng.normal(0.3, 1.0, rng.integers(2, 25)), 1)
+        u_b = mannwhitneyu(b, a).statistic          # pairs with b > a, ties half
+        assert p_better(a, b, "lower") == pytest.approx(u_b / (a.size * b.size), abs=1e-12)
+        u_a = mannwhitneyu(a, b).statistic
+        assert p_better(a, b, "higher") == pytest.approx(u_a / (a.size * b.size), abs=1e-12)
+    assert np.isnan(p_better([np.nan], [1.0]))
+    assert p_better([1.0, np.nan], [2.0]) == 1.0          # a failed start is left out
+
+
+def _seed_doc(r, a_vals, b_vals):
+    runs = {"r1": {}, "r2": {}}
+    seeds = {run: {"A": [{"x_dph": v + i} for v in a_vals],
+                   "B": [{"x_dph": v + i} for v in b_vals]}
+             for i, run in enumerate(runs)}
+    return {"replicate": r, "protocols": {"p": {"runs": runs, "seeds": seeds}}}
+
+
+def test_over_seeds_pools_starts_and_compares_within_replicates():
+    """Two replicates whose A starts all beat B's in the same replicate, though replicate 1's
+    A are worse than replicate 0's B (a between-replicate shift): the probability counts
+    pairs inside a replicate only, so it is 1 in both; the pooled quantiles are those of the
+    per-start means over the two runs (v + 0.5)."""
+    from fogbench.montecarlo import _over_seeds
+
+    docs = [_seed_doc(0, [1.0, 2.0, 3.0], [4.0, 5.0, 6.0]),
+            _seed_doc(1, [11.0, 12.0, 13.0], [14.0, 15.0, 16.0])]
+    o = _over_seeds(docs, "p", ["r1", "r2"], "A", "B", "x_dph")
+    assert o["seeds_per_replicate"] == 3
+    assert o["p_better_start"]["mean"] == 1.0 and o["p_better_start"]["n"] == 2
+    pooled_a = np.array([1.5, 2.5, 3.5, 11.5, 12.5, 13.5])
+    assert o["A"]["median"] == pytest.approx(np.median(pooled_a))
+    assert o["A"]["q05"] == pytest.approx(np.quantile(pooled_a, 0.05))
+    assert o["A"]["n"] == 6
+    # reversed: B never beats A; a method without seeds gives no comparison
+    assert _over_seeds(docs, "p", ["r1", "r2"], "B", "A", "x_dph")["p_better_start"]["mean"] == 0
+    assert _over_seeds(docs, "p", ["r1", "r2"], "A", "C", "x_dph") is None

@@ -800,7 +800,8 @@ def load_plan(sc: Scenario) -> Plan:
         if sweep is not None:
             members = _sweep_members(t, mname, params, sweep)
         for setting, paper in members:
-            full = {**params, **setting}
+            # "default" in a sweep: the constructor's default (which TOML cannot write: None)
+            full = {**params, **{k: v for k, v in setting.items() if v != SWEEP_DEFAULT}}
             try:
                 make_method(mname, **full).check_params()
             except (TypeError, ValueError) as exc:
@@ -876,9 +877,14 @@ def load_plan(sc: Scenario) -> Plan:
 MAX_SWEEP = 64
 
 
+#: A sweep value that stands for the method's default of that hyperparameter (for defaults TOML
+#: cannot write, such as ``level = None``: the deepest level the record allows).
+SWEEP_DEFAULT = "default"
+
+
 def _sweep_members(t: _Table, mname: str, params: dict, sweep: dict) -> list[tuple[dict, bool]]:
     """Every combination of a ``sweep = {key = [values]}`` table, and which one is the paper's
-    setting (the values ``params`` gives, else the method's defaults)."""
+    setting (the method's defaults; ``"default"`` names a default explicitly)."""
     import itertools
 
     from fogcomp import get_method
@@ -894,11 +900,18 @@ def _sweep_members(t: _Table, mname: str, params: dict, sweep: dict) -> list[tup
             raise t.err("sweep", f"{k}: expected a non-empty list of distinct values, got {v!r}")
         if k in params:
             raise t.err("sweep", f"{k} is both in params and swept; give it in one place")
+        if SWEEP_DEFAULT in v and defaults[k] in v:
+            raise t.err("sweep", f"{k}: {SWEEP_DEFAULT!r} and {defaults[k]!r} are the same "
+                        "setting (the default); give one")
     combos = list(itertools.product(*(sweep[k] for k in keys)))
     if len(combos) > MAX_SWEEP:
         raise t.err("sweep", f"{len(combos)} combinations; at most {MAX_SWEEP}")
     paper = {k: defaults[k] for k in keys}
-    return [(dict(zip(keys, c)), dict(zip(keys, c)) == paper) for c in combos]
+
+    def is_paper(c):
+        return all(v == SWEEP_DEFAULT or v == paper[k] for k, v in zip(keys, c))
+
+    return [(dict(zip(keys, c)), is_paper(c)) for c in combos]
 
 
 def expand(prot: Protocol, sc: Scenario) -> list[tuple[list[Selection], list[Selection]]]:

@@ -64,7 +64,33 @@ def test_a_sweep_expands_to_every_combination_with_safe_labels(tmp_path):
     assert [m.paper_setting for m in plan.methods] == [False, True]
 
 
+def test_default_in_a_sweep_is_the_constructor_default(tmp_path):
+    """``"default"`` stands for a default TOML cannot write (wavelet_soft's level = None, the
+    deepest level the record allows): the member gets no value for the key, is labelled
+    "level-default" and, with the other keys at their defaults, is the paper's setting. Run,
+    it equals the method with no parameters (the deepest level, not any fixed one)."""
+    import numpy as np
+
+    import fogcomp
+    from fogcomp import GyroData
+
+    _, plan = plan_of(tmp_path, 'sweep = { level = [3, "default"], '
+                                'threshold = ["universal", "sure"] }')
+    by = {m.label: m for m in plan.methods}
+    m = by["ws.level-default.threshold-universal"]
+    assert m.params == {"threshold": "universal"} and m.paper_setting
+    assert not by["ws.level-default.threshold-sure"].paper_setting
+    assert not by["ws.level-3.threshold-universal"].paper_setting
+    x = np.random.default_rng(0).normal(size=1000)
+    d = GyroData(rate=x, fs=100.0)
+    a = fogcomp.make_method("wavelet_soft", **m.params).fit(d).compensate(d)
+    b = fogcomp.make_method("wavelet_soft").fit(d).compensate(d)
+    c = fogcomp.make_method("wavelet_soft", level=3).fit(d).compensate(d)
+    assert np.array_equal(a, b) and not np.allclose(a, c)
+
+
 @pytest.mark.parametrize("sweep,words", [
+    ('sweep = { threshold = ["default", "universal"] }', ["sweep", "threshold", "same"]),
     ('sweep = { levels = [3] }', ["sweep", "levels", "not a hyperparameter"]),
     ('sweep = { level = 3 }', ["sweep", "non-empty list"]),
     ('sweep = { level = [3, 3] }', ["sweep", "distinct"]),

@@ -312,15 +312,18 @@ def engine_label(jobs: int | None = None, scheduler: str | None = None,
 
 def _stop_pool(pool: cf.ProcessPoolExecutor) -> None:
     """Cancel what has not started and stop the workers now (a replicate in flight is lost)."""
-    pool.shutdown(wait=False, cancel_futures=True)
     terminate = getattr(pool, "terminate_workers", None)  # Python >= 3.14
     if terminate is not None:
         terminate()
         return
-    for proc in list((getattr(pool, "_processes", None) or {}).values()):
+    # the worker processes, taken before shutdown(), which forgets them (and would otherwise
+    # wait, at interpreter exit, for the replicates in flight to finish)
+    procs = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for proc in procs:
         if proc.is_alive():
             proc.terminate()
-    for proc in list((getattr(pool, "_processes", None) or {}).values()):
+    for proc in procs:
         proc.join(timeout=5)
 
 

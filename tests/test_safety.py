@@ -311,3 +311,72 @@ def test_interrupted_suite_exits_cleanly_and_leaves_no_temporary_folders(home, s
     assert proc.returncode == code, err
     assert "Traceback" not in err and "KeyboardInterrupt" not in err
     assert _part_dirs(home) == []
+
+
+SLOW = """
+[scenario]
+name = "slow"
+sample_rate_hz = 10.0
+[fog]
+preset = "tactical"
+[thermal]
+start_c = 20.0
+[[thermal.steps]]
+ramp_to_c = 25.0
+rate_c_per_min = 10.0
+[[runs]]
+name = "a"
+seed = 1
+[[runs.motion]]
+type = "hold"
+duration_s = 60.0
+[[runs]]
+name = "b"
+seed = 2
+[[runs.motion]]
+type = "hold"
+duration_s = 60.0
+[[protocols]]
+name = "p"
+fit = ["a"]
+score = ["b"]
+[[methods]]
+name = "bp"
+params = { max_epochs = 5000000, goal = 0.0 }
+[montecarlo]
+replicates = 3
+"""
+
+
+@pytest.mark.parametrize("sig,code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_interrupt_stops_workers_in_the_middle_of_a_replicate(tmp_path, sig, code):
+    """The workers are busy with replicates that take minutes (5 million epochs of gradient
+    descent) when the signal comes: the suite ends them and exits at once, instead of waiting
+    at exit for the replicates in flight (Python 3.11's pool forgets its workers on shutdown)."""
+    (tmp_path / "scn").mkdir()
+    (tmp_path / "scn" / "slow.toml").write_text(SLOW)
+    proc = subprocess.Popen([sys.executable, "-m", "fogbench.cli", "suite", "--scenarios", "scn",
+                             "--out", "rep", "--jobs", "2", "--no-recording"], cwd=tmp_path,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    t0 = time.monotonic()
+    seen = ""
+    while time.monotonic() - t0 < 120 and "fit bp" not in seen:   # replicate 0, here: the
+        line = proc.stderr.readline()                               # others are in the pool
+        if not line:
+            break
+        seen += line
+    assert "fit bp" in seen, seen
+    time.sleep(1.0)
+    if sig == signal.SIGINT:
+        os.killpg(proc.pid, signal.SIGINT)
+    else:
+        proc.send_signal(signal.SIGTERM)
+    try:
+        _, err = proc.communicate(timeout=30)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        pytest.fail("the suite waited for the replicates in flight after the signal")
+    assert proc.returncode == code, seen + err
+    assert "Traceback" not in err
+    assert _part_dirs(tmp_path) == []

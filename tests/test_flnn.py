@@ -17,6 +17,7 @@ from fogcomp.base import DivergenceError, GyroData
 from fogcomp.methods.flnn import (
     IdentifiabilityWarning,
     _lms_pass,
+    chunk_grams,
     find_dwells,
     flnn_features,
     lstsq_identify,
@@ -189,7 +190,14 @@ def test_lms_pass_matches_plain_loop():
     w = w0.copy()
     for k in range(n):                                 # the obvious sequential LMS, eq. 7
         w = w + mu[k] * (y[k] - F[k] @ w) * F[k]
-    np.testing.assert_allclose(_lms_pass(w0, F, y, mu, chunk=512), w, rtol=1e-10, atol=1e-12)
+    for chunk in (1, 7, 64, 512, 5000):               # one sample, odd, default, 1 chunk
+        np.testing.assert_allclose(_lms_pass(w0, F, y, mu, chunk=chunk), w, rtol=1e-10,
+                                   atol=1e-12)
+        # the chunk matrices kept between passes of a fixed order (mu = alpha * step)
+        step = mu / 0.7
+        grams = chunk_grams(F, step, chunk=chunk)
+        np.testing.assert_allclose(_lms_pass(w0, F, y, mu, chunk=chunk, grams=grams,
+                                             scale=0.7), w, rtol=1e-10, atol=1e-12)
 
 
 def test_lms_recovers_centrifuge_coefficients():

@@ -178,7 +178,18 @@ def _cmd_check(args) -> int:
     from .scenario import RUNNER_SECTIONS, ScenarioError, load_plan, load_scenario
 
     bad = 0
-    for path in args.scenario:  # every file is checked and reported, not only the first bad one
+    paths = []
+    for path in args.scenario:  # a folder: every scenario file in it (as fogbench suite reads)
+        if Path(path).is_dir():
+            found = sorted(Path(path).glob("*.toml"))
+            if not found:
+                print(f"fogbench: error: {path}: no scenario file (*.toml) in this folder",
+                      file=sys.stderr)
+                bad += 1
+            paths += [str(f) for f in found]
+        else:
+            paths.append(path)
+    for path in paths:  # every file is checked and reported, not only the first bad one
         try:
             sc = load_scenario(path, extra_sections=RUNNER_SECTIONS)
             plan = load_plan(sc)
@@ -292,7 +303,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.set_defaults(func=_cmd_run)
 
     c = sub.add_parser("check", help="validate scenario files (nothing is simulated or written)")
-    c.add_argument("scenario", nargs="+", help="scenario file(s) (TOML)")
+    c.add_argument("scenario", nargs="+",
+                   help="scenario file(s) (TOML), or a folder: every *.toml in it")
     c.set_defaults(func=_cmd_check)
 
     u = sub.add_parser("suite", help="run every scenario and write reports/README.md")

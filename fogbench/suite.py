@@ -362,6 +362,7 @@ def run_suite(scenario_dir: Path, out: Path, check: bool = False, jobs: int | No
         except (MonteCarloError, OutDirError) as exc:
             results.append({"path": p, "name": name, "ok": False, "wall_s": 0.0,
                             "error": str(exc)})
+            print(f"fogbench: {name} is not run: {exc}", file=sys.stderr)
     total = sum(len(m.todo) + 1 for m in mcs.values())
     if not quiet:
         print(f"fogbench suite: {len(mcs)} scenario(s), "

@@ -227,6 +227,36 @@ def test_non_utf8_files_are_refused_naming_the_file_and_line(home, content, word
         assert w in err
 
 
+def test_check_a_folder_checks_every_scenario_in_it(home):
+    """``fogbench check DIR`` reads every *.toml of the folder (as the suite does), reports each,
+    and exits 2 when one is bad; an empty folder is an error, not a silent success."""
+    (home / "scn" / "broken.toml").write_text(SCENARIO.replace('preset = "tactical"',
+                                                               'preset = "nope"'))
+    code, out, err = cli("check", "scn", cwd=home)
+    assert code == 2
+    assert "tiny.toml: ok" in out and "broken.toml" in err and "nope" in err
+    (home / "empty").mkdir()
+    code, out, err = cli("check", "empty", cwd=home)
+    assert code == 2 and "no scenario file" in err
+
+
+def test_a_suite_says_at_once_why_a_scenario_is_not_run(home):
+    """Replicates an interrupted run left are kept (never deleted unasked): the next suite
+    without --resume does not run that scenario, says why before the others start, and ends
+    with a non-zero status."""
+    left = home / "rep" / ".tiny.replicates"
+    left.mkdir(parents=True)
+    (left / ".fogbench.json").write_text('{"kind": "replicates", "pid": 999999999}')
+    (left / "r00001.json").write_text("{}")
+    before = snapshot(left)
+    code, _, err = cli("suite", "--scenarios", "scn", "--out", "rep", "--quiet",
+                       "--no-recording", cwd=home)
+    assert code != 0
+    first = err.index("tiny is not run")
+    assert "--resume" in err[first:first + 400]
+    assert snapshot(left) == before
+
+
 def test_a_utf8_byte_order_mark_is_accepted(home):
     p = home / "scn" / "tiny.toml"
     p.write_bytes(b"\xef\xbb\xbf" + SCENARIO.encode())

@@ -24,6 +24,7 @@ import json
 import math
 import os
 import shutil
+import threading
 import time
 from pathlib import Path
 
@@ -477,6 +478,11 @@ class ScenarioMC:
         self.todo = [r for r in range(1, self.R) if r not in self.done]
         self.futures: dict = {}
         self.failures: list[dict] = []
+        # a future is stored once, by its done-callback (a pool's thread) or by wait(),
+        # whichever comes first
+        self._stored: set = set()
+        self._store_lock = threading.Lock()
+        self._on_done = None
         self.res0 = None
         self.first_s = None
         self.truths: dict = {}
@@ -504,6 +510,7 @@ class ScenarioMC:
         """Submit the replicates still to do; each is stored (its file written) the moment it
         completes, whatever the main process is doing, so a killed run keeps every finished
         replicate. ``on_done(ok)`` is called after each (e.g. a progress bar)."""
+        self._on_done = on_done
         for r in self.todo:
             fut = executor.submit(replicate_task, (self.path, self.digest, r, self.K,
                                                    self.methods, self.truths))
@@ -511,16 +518,19 @@ class ScenarioMC:
             fut.add_done_callback(lambda f, cb=on_done: self._store(f, cb))
 
     def _store(self, fut, on_done=None) -> None:
-        if fut.cancelled():
-            return
-        r = self.futures[fut]
-        exc = fut.exception()
-        if exc is None:
-            doc = fut.result()
-            self.work.write(doc)
-            self.done[r] = doc
-        elif isinstance(exc, Exception):  # a crashed replicate is a failure, not the end
-            self.failures.append({"replicate": r, "error": f"{type(exc).__name__}: {exc}"})
+        with self._store_lock:
+            if fut.cancelled() or fut in self._stored:
+                return
+            self._stored.add(fut)
+            r = self.futures[fut]
+            exc = fut.exception()
+            if exc is None:
+                doc = fut.result()
+                self.work.write(doc)
+                self.done[r] = doc
+            elif isinstance(exc, Exception):  # a crashed replicate is a failure, not the end
+                self.failures.append({"replicate": r,
+                                      "error": f"{type(exc).__name__}: {exc}"})
         if on_done is not None:
             on_done(exc is None)
 
@@ -551,6 +561,9 @@ class ScenarioMC:
             exc = fut.exception() if not fut.cancelled() else None
             if exc is not None and not isinstance(exc, Exception):
                 raise exc  # Ctrl-C or SIGTERM inside a serial replicate
+            # a future is done before its done-callbacks have run (in the pool's thread):
+            # store it here if the callback has not yet, so that no replicate is left out
+            self._store(fut, self._on_done)
 
     def kept(self) -> list[int]:
         """The replicates this run reports: 0 .. R-1 (a resumed folder may hold more)."""

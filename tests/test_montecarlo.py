@@ -291,3 +291,40 @@ def test_over_seeds_pools_starts_and_compares_within_replicates():
     # reversed: B never beats A; a method without seeds gives no comparison
     assert _over_seeds(docs, "p", ["r1", "r2"], "B", "A", "x_dph")["p_better_start"]["mean"] == 0
     assert _over_seeds(docs, "p", ["r1", "r2"], "A", "C", "x_dph") is None
+
+
+def test_every_replicate_is_kept_when_callbacks_run_late(scn, tmp_path):
+    """A pool marks a future done before its done-callbacks run (in the pool's own thread):
+    ``wait()`` must not return with a finished replicate not yet stored. Here every callback
+    runs 0.5 s late; all 4 replicates are in the aggregate, each stored once."""
+    import concurrent.futures as cf
+    import threading
+
+    timers = []
+
+    class LateFuture(cf.Future):
+        def add_done_callback(self, fn):
+            t = threading.Timer(0.5, fn, args=(self,))
+            timers.append(t)
+            t.start()
+
+    class LateExecutor(SerialExecutor):
+        def submit(self, fn, /, *args, **kwargs):
+            fut = LateFuture()
+            fut.set_running_or_notify_cancel()
+            fut.set_result(fn(*args, **kwargs))
+            return fut
+
+    calls = []
+    mc = ScenarioMC(scn, tmp_path / "late")
+    with contextlib.nullcontext(LateExecutor()) as ex:
+        mc.simulate_truths()
+        mc.submit(ex, on_done=calls.append)
+        mc.run_first()
+        mc.wait()
+    agg = mc.finish("test")
+    for t in timers:
+        t.join()
+    assert agg["replicates"] == 4
+    assert sorted(mc.done) == [0, 1, 2, 3]
+    assert calls == [True, True, True]          # progress advanced once per replicate

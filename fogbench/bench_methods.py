@@ -5,7 +5,9 @@ For each method, with its default hyperparameters (a seed where it needs one):
 * fit time on 2,500 and on 50,000 samples of a synthetic record carrying every input a method
   may need (rate, g, temperature, temperature rate), medians over ``repeats`` fits;
 * compensation rate, samples per second, on 1,000,000 samples (200,000 for the per-sample
-  Python Kalman filter, whose rate does not depend on the length), median over ``repeats``.
+  Python Kalman filter, whose rate does not depend on the length), median over ``repeats``;
+* the same for the readings that are not the defaults (:data:`READINGS`: Levenberg-Marquardt,
+  float64 gradient descent, online WNN on 2,500 samples only).
 
 The synthetic record (seeded, so every run sees the same numbers): a rate of -60 deg/s with a
 0.05 Hz sine of 1 deg/s, g on a slowly turning unit vector scaled by 1 +- 0.2 (a centrifuge-like
@@ -78,24 +80,36 @@ def synthetic_record(n: int, fs: float = 1.0, seed: int = 0):
     return GyroData(rate=rate, fs=fs, g=g, temp=temp, temp_rate=temp_rate), truth
 
 
-def _make(name: str):
-    m = fogcomp.make_method(name)
+#: Readings that are not the default, timed beside the defaults: (label, method, params,
+#: fit sizes). Online WNN is a per-sample Python loop, timed on 2,500 samples only.
+READINGS = (
+    ("bp lm", "bp", {"training": "lm"}, FIT_SIZES),
+    ("aco_bp lm", "aco_bp", {"training": "lm"}, FIT_SIZES),
+    ("bp float64", "bp", {"precision": "float64"}, FIT_SIZES),
+    ("wnn online", "wnn", {"training": "online"}, (2_500,)),
+)
+
+
+def _make(name: str, **params):
+    m = fogcomp.make_method(name, **params)
     if m.random:
         m.random_state = 1
     return m
 
 
-def bench_method(name: str, repeats: int = 3) -> dict:
-    """Median fit times (s) at each of ``FIT_SIZES`` and the compensation rate (samples/s)."""
+def bench_method(name: str, repeats: int = 3, params: dict | None = None,
+                 sizes=FIT_SIZES) -> dict:
+    """Median fit times (s) at each of ``sizes`` and the compensation rate (samples/s)."""
     out = {"name": name}
     model = None
+    params = params or {}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        for n in FIT_SIZES:
+        for n in sizes:
             data, truth = synthetic_record(n)
             times = []
             for _ in range(repeats):
-                m = _make(name)
+                m = _make(name, **params)
                 t0 = time.perf_counter()
                 m.fit(data, truth)
                 times.append(time.perf_counter() - t0)
@@ -195,12 +209,20 @@ def main(repeats: int = 3, methods: list[str] | None = None) -> int:
            f"{'compensate (M samples/s)':>26}")
     print(hdr)
     print("-" * len(hdr), flush=True)
-    rows = []
     for name in names:
         r = bench_method(name, repeats)
-        rows.append(r)
         print(f"{name:<14}{r['fit_s_2500']:>15.3f}{r['fit_s_50000']:>16.3f}"
               f"{r['comp_per_s'] / 1e6:>26.2f}", flush=True)
+    readings = [rd for rd in READINGS if not methods or rd[1] in methods]
+    if readings:
+        print("\nother readings (not the defaults):")
+        print(hdr)
+        print("-" * len(hdr), flush=True)
+    for label, name, params, sizes in readings:
+        r = bench_method(name, repeats, params, sizes)
+        big = f"{r['fit_s_50000']:>16.3f}" if "fit_s_50000" in r else f"{'not timed':>16}"
+        print(f"{label:<14}{r['fit_s_2500']:>15.3f}{big}{r['comp_per_s'] / 1e6:>26.2f}",
+              flush=True)
     return 0
 
 

@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import time
 from pathlib import Path
 
 # One BLAS thread per process: the bench parallelises over processes (replicates, scenarios);
@@ -16,35 +15,12 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 __all__ = ["main"]
 
 
-class Progress:
-    """A one-line progress indicator on stderr (plain lines when stderr is not a terminal)."""
-
-    def __init__(self, label: str, quiet: bool = False):
-        self.label, self.quiet = label, quiet
-        self.tty = sys.stderr.isatty()
-        self.t0 = time.monotonic()
-        self.last = -1.0
-
-    def __call__(self, fraction: float):
-        if self.quiet:
-            return
-        pct = 100.0 * fraction
-        if self.tty:
-            sys.stderr.write(f"\r{self.label}: {pct:5.1f} %  ({time.monotonic() - self.t0:.1f} s)")
-            if fraction >= 1.0:
-                sys.stderr.write("\n")
-            sys.stderr.flush()
-        elif pct - self.last >= 25.0 or fraction >= 1.0:
-            print(f"{self.label}: {pct:.0f} % ({time.monotonic() - self.t0:.1f} s)",
-                  file=sys.stderr, flush=True)
-            self.last = pct
-
-
 def _cmd_simulate(args) -> int:
     from sim.rig import simulate_run
 
     from .io import versions, write_manifest, write_run
     from .outdir import check_out_dir, new_part_dir, replace_dir
+    from .progress import Progress
     from .scenario import RUNNER_SECTIONS, load_plan, load_scenario
 
     scenario = load_scenario(args.scenario, extra_sections=RUNNER_SECTIONS)
@@ -64,8 +40,9 @@ def _cmd_simulate(args) -> int:
         for run in scenario.runs:
             if args.run and run.name not in args.run:
                 continue
-            rd = simulate_run(scenario.rig, run,
-                              progress=Progress(f"{scenario.name}/{run.name}", args.quiet))
+            with Progress(100, f"{scenario.name}/{run.name}", quiet=args.quiet,
+                          unit="%") as bar:
+                rd = simulate_run(scenario.rig, run, progress=bar.to_fraction)
             write_run(tmp, scenario, rd)
             names.append(run.name)
         write_manifest(tmp, scenario, names)

@@ -1,4 +1,4 @@
-"""A progress bar on stderr for replicates: done / total, rate and time left (tqdm)."""
+"""A progress bar on stderr: replicates (or percent) done / total, rate and time left (tqdm)."""
 
 from __future__ import annotations
 
@@ -39,9 +39,12 @@ class Progress:
         self.total = total
         self.done = 0
         self.failed = 0
+        # percent of one piece of work: no count and no rate, only the bar and the times
+        fmt = "{l_bar}{bar}| [{elapsed}<{remaining}]" if unit == "%" else None
         self._bar = tqdm(total=total, desc=desc or None, unit=unit,
                          file=sys.stderr if file is None else file, disable=bool(quiet),
-                         dynamic_ncols=True, mininterval=0.5, smoothing=0.1, leave=True)
+                         dynamic_ncols=True, mininterval=0.5, smoothing=0.1, leave=True,
+                         bar_format=fmt)
 
     def advance(self, n: int = 1, failed: int | bool = 0) -> None:
         """Count ``n`` more tasks done, ``failed`` of them failed (shown beside the bar)."""
@@ -50,6 +53,13 @@ class Progress:
             self.failed += int(failed)
             self._bar.set_postfix_str(f"{self.failed} failed", refresh=False)
         self._bar.update(n)
+
+    def to_fraction(self, fraction: float) -> None:
+        """Move the bar to ``fraction`` (0..1) of ``total``, for work reported as a fraction
+        (the rig's rollout: ``simulate_run(..., progress=bar.to_fraction)``)."""
+        target = min(self.total, max(self.done, int(round(float(fraction) * self.total))))
+        if target > self.done:
+            self.advance(target - self.done)
 
     def close(self) -> None:
         self._bar.close()

@@ -162,6 +162,21 @@ def test_progress_writes_to_stderr_and_is_silent_when_quiet(capsys):
     assert out == "" and "quiet" not in err and "2/2" in err and "loud" in err
 
 
+def test_progress_to_fraction_moves_forward_only_and_ends_at_total():
+    """Work reported as a fraction (the rig's rollout): the bar follows round(f * total),
+    never goes back, never passes the total, and ends full."""
+    buf = io.StringIO()
+    with Progress(100, "sim", unit="%", file=buf) as bar:
+        for f in (0.0, 0.254, 0.25, 0.5, 1.2):
+            bar.to_fraction(f)
+            if f == 0.254:
+                assert bar.done == 25
+            if f == 0.25:
+                assert bar.done == 25                  # not back
+        assert bar.done == 100                         # 1.2 clipped to the total
+    assert "100%" in buf.getvalue() and "%/s" not in buf.getvalue()
+
+
 # -- seeds ---------------------------------------------------------------------------------------
 def test_seeds_are_distinct_over_coordinates_and_depend_on_them_only():
     seen = {replicate_seed(s, r, k, st) for s in (0, 1) for r in range(40) for k in range(5)

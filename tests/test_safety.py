@@ -381,8 +381,9 @@ replicates = 3
 @pytest.mark.parametrize("sig,code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
 def test_interrupt_stops_workers_in_the_middle_of_a_replicate(tmp_path, sig, code):
     """The workers are busy with replicates that take minutes (5 million epochs of gradient
-    descent) when the signal comes: the suite ends them and exits at once, instead of waiting
-    at exit for the replicates in flight (Python 3.11's pool forgets its workers on shutdown)."""
+    descent) when the signal comes: the suite ends them and exits at once with its one line,
+    instead of waiting at exit for the replicates in flight (Python 3.11's pool forgets its
+    workers on shutdown)."""
     (tmp_path / "scn").mkdir()
     (tmp_path / "scn" / "slow.toml").write_text(SLOW)
     proc = subprocess.Popen([sys.executable, "-m", "fogbench.cli", "suite", "--scenarios", "scn",
@@ -408,5 +409,8 @@ def test_interrupt_stops_workers_in_the_middle_of_a_replicate(tmp_path, sig, cod
         os.killpg(proc.pid, signal.SIGKILL)
         pytest.fail("the suite waited for the replicates in flight after the signal")
     assert proc.returncode == code, seen + err
-    assert "Traceback" not in err
+    assert ("interrupted" if sig == signal.SIGINT else "terminated (SIGTERM)") in err
+    # no traceback from fogbench's code (under load, multiprocessing's own helper process has
+    # been seen to print a BrokenPipeError as the pool is torn down: not ours to silence)
+    assert "KeyboardInterrupt" not in err and "fogbench/" not in err, err
     assert _part_dirs(tmp_path) == []

@@ -166,6 +166,7 @@ def _cmd_check(args) -> int:
             paths += [str(f) for f in found]
         else:
             paths.append(path)
+    first_file: dict = {}
     for path in paths:  # every file is checked and reported, not only the first bad one
         try:
             sc = load_scenario(path, extra_sections=RUNNER_SECTIONS)
@@ -174,6 +175,13 @@ def _cmd_check(args) -> int:
             print(f"fogbench: error: {exc}", file=sys.stderr)
             bad += 1
             continue
+        if sc.name in first_file:  # as fogbench suite refuses it: each names a report folder
+            print(f"fogbench: error: {path}: [scenario] key 'name': {sc.name!r} is also the "
+                  f"name of {first_file[sc.name]}; scenario names must be unique in a suite "
+                  "(each names its report folder)", file=sys.stderr)
+            bad += 1
+            continue
+        first_file[sc.name] = path
         n = sum(r.duration for r in sc.runs) * sc.fs
         print(f"{path}: ok: scenario {sc.name!r}, {len(sc.runs)} run(s), {n:.0f} samples, "
               f"{len(plan.protocols)} protocol(s), {len(plan.methods)} method(s), "

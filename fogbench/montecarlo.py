@@ -291,7 +291,8 @@ def _over_seeds(docs, prot: str, runs: list[str], better: str, than: str, metric
     """A claim between two seeded methods over their method starts: the pooled distribution
     of each (median, 5 and 95 % quantiles over replicates x seeds) and P(a start of ``better``
     beats a start of ``than`` in the same replicate), summarised over replicates; None when
-    either method has no seeds."""
+    either method has no seeds. A start that failed (no value) is left out of both and
+    counted in ``failed_starts``."""
     direction = "higher" if metric.endswith("_pct") else "lower"
     ps, pooled = [], {better: [], than: []}
     for d in docs:
@@ -302,7 +303,10 @@ def _over_seeds(docs, prot: str, runs: list[str], better: str, than: str, metric
         ps.append(p_better(a, b, direction))
         pooled[better].extend(a.tolist())
         pooled[than].extend(b.tolist())
-    out = {"p_better_start": S.summarize(ps).as_dict(), "seeds_per_replicate": None}
+    out = {"p_better_start": S.summarize(ps).as_dict(), "seeds_per_replicate": None,
+           "failed_starts": {lab: int(np.sum(~np.isfinite(np.asarray(v, dtype=float))))
+                             for lab, v in pooled.items()},
+           "starts": {lab: len(v) for lab, v in pooled.items()}}
     for lab, vals in pooled.items():
         v = np.asarray(vals, dtype=float)
         v = v[np.isfinite(v)]
@@ -531,8 +535,8 @@ class ScenarioMC:
             elif isinstance(exc, Exception):  # a crashed replicate is a failure, not the end
                 self.failures.append({"replicate": r,
                                       "error": f"{type(exc).__name__}: {exc}"})
-        if on_done is not None:
-            on_done(exc is None)
+            if on_done is not None:  # under the lock: one thread at a time advances the bar
+                on_done(exc is None)
 
     def run_first(self, say=None) -> None:
         """Replicate 0 in full (arrays for the figures and the recording)."""

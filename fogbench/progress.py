@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+import threading
 
 from tqdm import tqdm
 
@@ -39,6 +40,7 @@ class Progress:
         self.total = total
         self.done = 0
         self.failed = 0
+        self._lock = threading.Lock()   # advanced from a pool's callback thread and this one
         # percent of one piece of work: no count and no rate, only the bar and the times
         fmt = "{l_bar}{bar}| [{elapsed}<{remaining}]" if unit == "%" else None
         self._bar = tqdm(total=total, desc=desc or None, unit=unit,
@@ -48,11 +50,12 @@ class Progress:
 
     def advance(self, n: int = 1, failed: int | bool = 0) -> None:
         """Count ``n`` more tasks done, ``failed`` of them failed (shown beside the bar)."""
-        self.done += n
-        if failed:
-            self.failed += int(failed)
-            self._bar.set_postfix_str(f"{self.failed} failed", refresh=False)
-        self._bar.update(n)
+        with self._lock:
+            self.done += n
+            if failed:
+                self.failed += int(failed)
+                self._bar.set_postfix_str(f"{self.failed} failed", refresh=False)
+            self._bar.update(n)
 
     def to_fraction(self, fraction: float) -> None:
         """Move the bar to ``fraction`` (0..1) of ``total``, for work reported as a fraction

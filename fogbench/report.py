@@ -977,11 +977,14 @@ def over_seeds_text(c: dict) -> str:
 
     k = o.get("seeds_per_replicate")
     p = o["p_better_start"]
+    failed = [f"{n} of {o['starts'][lab]} starts of {lab}" for lab, n in
+              (o.get("failed_starts") or {}).items() if n]
+    left = f" Failed, left out: {', '.join(failed)}." if failed else ""
     ptxt = p_better_text(p)
     return (f" Over method starts ({k if k else 'K'} per replicate; median [5 %, 95 %] of "
             f"{m} over replicates x starts): {dist(c['better'])}, {dist(c['than'])}; a start "
             f"of {c['better']} beats a start of {c['than']} with probability "
-            f"{ptxt} (0.5: no difference).")
+            f"{ptxt} (0.5: no difference).{left}")
 
 
 def render_bands(res: ScenarioResult, mc: dict | None) -> list[str]:

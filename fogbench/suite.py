@@ -110,9 +110,11 @@ def _start_text(c: dict) -> str:
     o = c.get("over_seeds")
     if not o:
         return ""
+    failed = sum((o.get("failed_starts") or {}).values())
     return (f"; over {o.get('seeds_per_replicate') or 'K'} method starts per replicate, a "
             f"start of {c['better']} beats one of {c['than']} with probability "
-            f"{p_better_text(o['p_better_start'])}")
+            f"{p_better_text(o['p_better_start'])}"
+            + (f" ({failed} failed starts left out)" if failed else ""))
 
 
 def _claims(plan, doc) -> list[str]:

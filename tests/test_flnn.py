@@ -198,6 +198,9 @@ def test_lms_pass_matches_plain_loop():
         grams = chunk_grams(F, step, chunk=chunk)
         np.testing.assert_allclose(_lms_pass(w0, F, y, mu, chunk=chunk, grams=grams,
                                              scale=0.7), w, rtol=1e-10, atol=1e-12)
+    # matrices of another chunk size would give wrong weights: refused
+    with pytest.raises(ValueError, match="grams"):
+        _lms_pass(w0, F, y, mu, chunk=128, grams=chunk_grams(F, mu / 0.7, chunk=64), scale=0.7)
 
 
 def test_lms_recovers_centrifuge_coefficients():

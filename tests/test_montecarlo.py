@@ -293,6 +293,26 @@ def test_over_seeds_pools_starts_and_compares_within_replicates():
     assert _over_seeds(docs, "p", ["r1", "r2"], "A", "C", "x_dph") is None
 
 
+def test_over_seeds_higher_is_better_for_percent_metrics_and_counts_failed_starts():
+    """On a `_pct` metric a larger value is better: A's starts (all larger) beat B's with
+    probability 1. A start without a value (a failed fit) is left out and counted."""
+    from fogbench.montecarlo import _over_seeds
+
+    def doc(r, a, b):
+        seeds = {"r1": {"A": [{"x_pct": v} if v is not None else {"status": "failed"}
+                              for v in a],
+                        "B": [{"x_pct": v} for v in b]}}
+        return {"replicate": r, "protocols": {"p": {"runs": {"r1": {}}, "seeds": seeds}}}
+
+    docs = [doc(0, [50.0, 60.0, None], [10.0, 20.0, 30.0]),
+            doc(1, [55.0, 65.0, 70.0], [15.0, 25.0, 35.0])]
+    o = _over_seeds(docs, "p", ["r1"], "A", "B", "x_pct")
+    assert o["p_better_start"]["mean"] == 1.0
+    assert o["failed_starts"] == {"A": 1, "B": 0} and o["starts"] == {"A": 6, "B": 6}
+    assert o["A"]["n"] == 5
+    assert _over_seeds(docs, "p", ["r1"], "B", "A", "x_pct")["p_better_start"]["mean"] == 0.0
+
+
 def test_every_replicate_is_kept_when_callbacks_run_late(scn, tmp_path):
     """A pool marks a future done before its done-callbacks run (in the pool's own thread):
     ``wait()`` must not return with a finished replicate not yet stored. Here every callback

@@ -238,6 +238,11 @@ def test_check_a_folder_checks_every_scenario_in_it(home):
     (home / "empty").mkdir()
     code, out, err = cli("check", "empty", cwd=home)
     assert code == 2 and "no scenario file" in err
+    # two files with one scenario name: refused as the suite refuses them
+    (home / "scn" / "broken.toml").unlink()
+    (home / "scn" / "copy.toml").write_text(SCENARIO)
+    code, out, err = cli("check", "scn", cwd=home)
+    assert code == 2 and "'tiny'" in err and "unique" in err
 
 
 def test_a_suite_says_at_once_why_a_scenario_is_not_run(home):
@@ -249,11 +254,14 @@ def test_a_suite_says_at_once_why_a_scenario_is_not_run(home):
     (left / ".fogbench.json").write_text('{"kind": "replicates", "pid": 999999999}')
     (left / "r00001.json").write_text("{}")
     before = snapshot(left)
-    code, _, err = cli("suite", "--scenarios", "scn", "--out", "rep", "--quiet",
-                       "--no-recording", cwd=home)
+    (home / "scn" / "other.toml").write_text(SCENARIO.replace('name = "tiny"', 'name = "other"'))
+    code, _, err = cli("suite", "--scenarios", "scn", "--out", "rep", "--no-recording",
+                       cwd=home)
     assert code != 0
     first = err.index("tiny is not run")
     assert "--resume" in err[first:first + 400]
+    assert first < err.index("fogbench suite: 1 scenario(s)")     # before the work starts
+    assert (home / "rep" / "other" / "metrics.json").exists()    # the other one ran
     assert snapshot(left) == before
 
 

@@ -291,6 +291,24 @@ def test_lm_follows_its_slow_twin(seed, n, goal):
     np.testing.assert_allclose(fast[0], slow[0], rtol=1e-5, atol=1e-7)
 
 
+def test_lm_follows_its_slow_twin_to_the_goal():
+    """A target a 2-9-1 network makes itself, from a nearby start: both reach the goal in the
+    same (few) epochs with the same losses (the "goal" stop, which the noisy cases above never
+    reach)."""
+    from fogcomp.methods.temperature import train_lm
+
+    rng = np.random.default_rng(8)
+    teacher = rng.uniform(-1, 1, 37)
+    x = rng.uniform(-1, 1, (400, 2))
+    t = net_forward(teacher, x, 9)
+    start = teacher + 0.05 * rng.normal(size=37)
+    fast = train_lm(start, x, t, 9, max_epochs=1000, goal=1e-8)
+    slow = _train_lm_slow(start, x, t, 9, max_epochs=1000, goal=1e-8)
+    assert fast[2] == slow[2] == "goal"
+    assert fast[1].shape == slow[1].shape and fast[1].size < 50
+    np.testing.assert_allclose(fast[1], slow[1], rtol=1e-6)
+
+
 @pytest.mark.parametrize("name", ["bp", "aco_bp"])
 def test_training_lm_on_the_method(name):
     """``training="lm"`` on the smooth law: the held-out RMSE falls from ~10 % of the target's

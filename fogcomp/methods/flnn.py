@@ -543,6 +543,9 @@ def _lms_pass(w: np.ndarray, F: np.ndarray, y: np.ndarray, mu: np.ndarray,
     Chen & Cheng 2000 (fogbench seed 004), eqs. 5-7 (output, error, weight update).
     """
     n = F.shape[0]
+    if grams is not None and grams.shape != (-(-n // chunk), chunk, chunk):
+        raise ValueError(f"grams: shape {grams.shape} is not that of chunk_grams(F, step, "
+                         f"chunk={chunk}) for {n} samples")
     w = np.array(w, dtype=float)
     for i, s in enumerate(range(0, n, chunk)):
         f = F[s:s + chunk]

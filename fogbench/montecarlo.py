@@ -371,6 +371,18 @@ def aggregate(docs: list[dict], sc, plan) -> dict:
                     by_metric[metric] = {"mean_std_over_seeds": float(np.mean(sds)),
                                          "replicates": len(sds)}
 
+    # every start of a seeded method (K > 1), per replicate: its mean over the scored runs
+    start_series: dict = {}
+    for prot in plan.protocols:
+        for metric in SERIES_METRICS:
+            for lab in labels:
+                vals = [_seed_values(d, prot.name, runs_of[prot.name], lab, metric)
+                        for d in docs]
+                if vals and all(v is not None for v in vals) and \
+                        any(np.isfinite(v).any() for v in vals):
+                    start_series.setdefault(prot.name, {}).setdefault(metric, {})[lab] = \
+                        [[None if not math.isfinite(x) else float(x) for x in v] for v in vals]
+
     series: dict = {}
     for prot in plan.protocols:
         for metric in SERIES_METRICS:
@@ -441,7 +453,7 @@ def aggregate(docs: list[dict], sc, plan) -> dict:
                     "orderings": [o.as_dict() for o in orders]})
     return {"replicates": len(docs), "summary": summary, "over_runs": over_runs,
             "seed_spread": seed_spread, "claims": claims, "rankings": rankings,
-            "series": series,
+            "series": series, "start_series": start_series,
             "interval": "95 % Student t-interval of the mean over replicates "
                         "(fogbench.stats.summarize)"}
 
@@ -449,8 +461,8 @@ def aggregate(docs: list[dict], sc, plan) -> dict:
 def summary_digest(mc: dict) -> str:
     """SHA-256 of the aggregate without anything that depends on the machine (for the
     determinism law: serial, process pool and Dask must agree)."""
-    keep = {k: mc[k] for k in ("replicates", "summary", "over_runs", "seed_spread", "claims",
-                               "rankings", "series")}
+    keep = {k: mc.get(k) for k in ("replicates", "summary", "over_runs", "seed_spread",
+                                   "claims", "rankings", "series", "start_series")}
     return hashlib.sha256(json.dumps(_clean(keep), sort_keys=True).encode()).hexdigest()
 
 

@@ -740,6 +740,9 @@ def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_d
             if figure("replicate distributions", fig_replicates, res, montecarlo,
                       tmp / "figures" / "replicates.png"):
                 fig_names[("replicates",)] = "figures/replicates.png"
+            if figure("start distributions", fig_starts, res, montecarlo,
+                      tmp / "figures" / "starts.png"):
+                fig_names[("starts",)] = "figures/starts.png"
         write_metrics(tmp / "metrics.json",
                       res.metrics if montecarlo is None else {**res.metrics,
                                                               "montecarlo": montecarlo})
@@ -834,6 +837,45 @@ def fig_replicates(res: ScenarioResult, mc: dict, path: Path) -> bool:
         flag = " (in-sample)" if prot.in_sample else ""
         ax.set_title(f"{prot.name}{flag}: {mc['replicates']} replicates", fontsize=10)
         if metric.endswith("_dph") and all(d.size and np.all(d > 0) for d in data):
+            ax.set_yscale("log")
+        ax.grid(alpha=0.3)
+    fig.tight_layout()
+    _save(fig, path)
+    return True
+
+
+def fig_starts(res: ScenarioResult, mc: dict, path: Path) -> bool:
+    """The methods that draw random starts (K > 1), start by start: each protocol's key metric
+    for every start of every replicate (a point), a box for the quartiles over replicates x
+    starts, and the replicate means (the values the claims use) as crosses."""
+    ss = mc.get("start_series", {})
+    prots = [p for p in res.plan.protocols
+             if key_metric(mc, p.name, res.plan) in ss.get(p.name, {})]
+    if not prots:
+        return False
+    fig, axes = plt.subplots(1, len(prots), figsize=(4.2 * len(prots) + 1.5, 4.2), squeeze=False)
+    rng = np.random.default_rng(0)  # horizontal jitter of the points only
+    for ax, prot in zip(axes[0], prots):
+        metric = key_metric(mc, prot.name, res.plan)
+        by_label = ss[prot.name][metric]
+        labels = list(by_label)
+        pooled = [np.array([x for rep in by_label[lab] for x in rep if x is not None])
+                  for lab in labels]
+        ax.boxplot(pooled, positions=range(len(labels)), widths=0.5, showfliers=False,
+                   medianprops={"color": "k"})
+        for i, (lab, d) in enumerate(zip(labels, pooled)):
+            ax.plot(i + rng.uniform(-0.2, 0.2, d.size), d, "o", ms=2, alpha=0.35,
+                    color=_color(lab, labels) or "tab:blue", zorder=3)
+            means = [np.mean([x for x in rep if x is not None]) for rep in by_label[lab]
+                     if any(x is not None for x in rep)]
+            ax.plot(np.full(len(means), i + 0.32), means, "x", ms=4, color="k", zorder=4)
+        ax.set_xticks(range(len(labels)), labels, rotation=30, ha="right")
+        ax.set_ylabel(metric)
+        k = max(len(rep) for lab in labels for rep in by_label[lab])
+        flag = " (in-sample)" if prot.in_sample else ""
+        ax.set_title(f"{prot.name}{flag}: {mc['replicates']} replicates x {k} starts",
+                     fontsize=10)
+        if metric.endswith("_dph") and all(d.size and np.all(d > 0) for d in pooled):
             ax.set_yscale("log")
         ax.grid(alpha=0.3)
     fig.tight_layout()
@@ -950,6 +992,10 @@ def render_montecarlo(res: ScenarioResult, mc: dict, fig_names: dict) -> str:
                       + "; ".join(bits) + ".", ""]
     if ("replicates",) in fig_names:
         L += [f"![distributions over replicates]({fig_names[('replicates',)]})", ""]
+    if ("starts",) in fig_names:
+        L += [f"The methods that draw random starts, start by start (points: every start of "
+              f"every replicate; crosses: the replicate means the claims use):", "",
+              f"![distributions over method starts]({fig_names[('starts',)]})", ""]
     L += render_bands(res, mc)
     return "\n".join(L)
 

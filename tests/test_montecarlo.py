@@ -348,3 +348,26 @@ def test_every_replicate_is_kept_when_callbacks_run_late(scn, tmp_path):
     assert agg["replicates"] == 4
     assert sorted(mc.done) == [0, 1, 2, 3]
     assert calls == [True, True, True]          # progress advanced once per replicate
+
+
+def test_start_series_holds_every_start_and_the_figure_draws_them(scn, tmp_path):
+    """With K = 3 starts: ``start_series`` holds, per replicate, each start's metric averaged
+    over the scored runs, as read back from the replicate files; the mean over a replicate's
+    starts is the replicate value the claims use (``series``); the starts figure is drawn."""
+    from fogbench.report import fig_starts
+
+    mc, agg = run_mc(scn, tmp_path / "k3", make_executor(jobs=1), method_seeds=3)
+    got = agg["start_series"]["own_run"]["rmse_dph"]["bp"]
+    assert len(got) == 4 and all(len(rep) == 3 for rep in got)
+    for r, rep in enumerate(got):
+        doc = json.loads((mc.work.path / f"r{r:05d}.json").read_text()) \
+            if (mc.work.path / f"r{r:05d}.json").exists() else mc.done[r]
+        seeds = doc["protocols"]["own_run"]["seeds"]
+        for k in range(3):
+            want = np.mean([seeds[run]["bp"][k]["rmse_dph"] for run in seeds])
+            assert rep[k] == pytest.approx(want, rel=1e-12)
+        assert agg["series"]["own_run"]["rmse_dph"]["bp"][r] == pytest.approx(np.mean(rep),
+                                                                              rel=1e-12)
+    assert "poly_temp" not in agg["start_series"]["own_run"]["rmse_dph"]   # draws no start
+    path = tmp_path / "starts.png"
+    assert fig_starts(mc.res0, agg, path) and path.stat().st_size > 1000

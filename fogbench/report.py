@@ -814,28 +814,35 @@ def key_metric(mc: dict, protocol: str, plan) -> str | None:
     return None
 
 
-def fig_replicates(res: ScenarioResult, mc: dict, path: Path) -> bool:
-    """Each protocol's key metric over replicates: one column per method (raw and oracle too),
-    every replicate a point, a box for the quartiles."""
-    prots = [p for p in res.plan.protocols if key_metric(mc, p.name, res.plan)]
-    if not prots or mc["replicates"] < 2:
-        return False
-    fig, axes = plt.subplots(1, len(prots), figsize=(4.2 * len(prots) + 1.5, 4.2), squeeze=False)
-    rng = np.random.default_rng(0)  # horizontal jitter of the points only
-    for ax, prot in zip(axes[0], prots):
+def _fig_distributions(res: ScenarioResult, mc: dict, path: Path, panel) -> bool:
+    """One panel per protocol whose key metric ``panel(prot, metric)`` has values: one column
+    per method, the values as jittered points over a box of their quartiles (log scale for
+    positive deg/h). ``panel`` returns (labels, values per label, title, extra(ax, i, label))
+    or None to leave the protocol out."""
+    panels = []
+    for prot in res.plan.protocols:
         metric = key_metric(mc, prot.name, res.plan)
-        ser = mc["series"].get(prot.name, {}).get(metric, {})
-        labels = [lab for lab in ser if any(v is not None for v in ser[lab])]
-        data = [np.array([v for v in ser[lab] if v is not None]) for lab in labels]
+        got = panel(prot, metric) if metric else None
+        if got:
+            panels.append((prot, metric) + tuple(got))
+    if not panels:
+        return False
+    fig, axes = plt.subplots(1, len(panels), figsize=(4.2 * len(panels) + 1.5, 4.2),
+                             squeeze=False)
+    rng = np.random.default_rng(0)  # horizontal jitter of the points only
+    for ax, (prot, metric, labels, data, title, style, extra) in zip(axes[0], panels):
         ax.boxplot(data, positions=range(len(labels)), widths=0.5, showfliers=False,
                    medianprops={"color": "k"})
         for i, (lab, d) in enumerate(zip(labels, data)):
-            ax.plot(i + rng.uniform(-0.15, 0.15, d.size), d, "o", ms=3.5, alpha=0.7,
+            ax.plot(i + rng.uniform(-style["jitter"], style["jitter"], d.size), d, "o",
+                    ms=style["ms"], alpha=style["alpha"],
                     color=_color(lab, labels) or "tab:blue", zorder=3)
+            if extra is not None:
+                extra(ax, i, lab)
         ax.set_xticks(range(len(labels)), labels, rotation=30, ha="right")
         ax.set_ylabel(metric)
         flag = " (in-sample)" if prot.in_sample else ""
-        ax.set_title(f"{prot.name}{flag}: {mc['replicates']} replicates", fontsize=10)
+        ax.set_title(f"{prot.name}{flag}: {title}", fontsize=10)
         if metric.endswith("_dph") and all(d.size and np.all(d > 0) for d in data):
             ax.set_yscale("log")
         ax.grid(alpha=0.3)
@@ -844,43 +851,46 @@ def fig_replicates(res: ScenarioResult, mc: dict, path: Path) -> bool:
     return True
 
 
+def fig_replicates(res: ScenarioResult, mc: dict, path: Path) -> bool:
+    """Each protocol's key metric over replicates: one column per method (raw and oracle too),
+    every replicate a point, a box for the quartiles."""
+    if mc["replicates"] < 2:
+        return False
+
+    def panel(prot, metric):
+        ser = mc["series"].get(prot.name, {}).get(metric, {})
+        labels = [lab for lab in ser if any(v is not None for v in ser[lab])]
+        data = [np.array([v for v in ser[lab] if v is not None]) for lab in labels]
+        return (labels, data, f"{mc['replicates']} replicates",
+                {"jitter": 0.15, "ms": 3.5, "alpha": 0.7}, None)
+
+    return _fig_distributions(res, mc, path, panel)
+
+
 def fig_starts(res: ScenarioResult, mc: dict, path: Path) -> bool:
     """The methods that draw random starts (K > 1), start by start: each protocol's key metric
     for every start of every replicate (a point), a box for the quartiles over replicates x
     starts, and the replicate means (the values the claims use) as crosses."""
     ss = mc.get("start_series", {})
-    prots = [p for p in res.plan.protocols
-             if key_metric(mc, p.name, res.plan) in ss.get(p.name, {})]
-    if not prots:
-        return False
-    fig, axes = plt.subplots(1, len(prots), figsize=(4.2 * len(prots) + 1.5, 4.2), squeeze=False)
-    rng = np.random.default_rng(0)  # horizontal jitter of the points only
-    for ax, prot in zip(axes[0], prots):
-        metric = key_metric(mc, prot.name, res.plan)
-        by_label = ss[prot.name][metric]
+
+    def panel(prot, metric):
+        by_label = ss.get(prot.name, {}).get(metric)
+        if not by_label:
+            return None
         labels = list(by_label)
         pooled = [np.array([x for rep in by_label[lab] for x in rep if x is not None])
                   for lab in labels]
-        ax.boxplot(pooled, positions=range(len(labels)), widths=0.5, showfliers=False,
-                   medianprops={"color": "k"})
-        for i, (lab, d) in enumerate(zip(labels, pooled)):
-            ax.plot(i + rng.uniform(-0.2, 0.2, d.size), d, "o", ms=2, alpha=0.35,
-                    color=_color(lab, labels) or "tab:blue", zorder=3)
-            means = [np.mean([x for x in rep if x is not None]) for rep in by_label[lab]
-                     if any(x is not None for x in rep)]
-            ax.plot(np.full(len(means), i + 0.32), means, "x", ms=4, color="k", zorder=4)
-        ax.set_xticks(range(len(labels)), labels, rotation=30, ha="right")
-        ax.set_ylabel(metric)
         k = max(len(rep) for lab in labels for rep in by_label[lab])
-        flag = " (in-sample)" if prot.in_sample else ""
-        ax.set_title(f"{prot.name}{flag}: {mc['replicates']} replicates x {k} starts",
-                     fontsize=10)
-        if metric.endswith("_dph") and all(d.size and np.all(d > 0) for d in pooled):
-            ax.set_yscale("log")
-        ax.grid(alpha=0.3)
-    fig.tight_layout()
-    _save(fig, path)
-    return True
+
+        def means(ax, i, lab):
+            m = [np.mean([x for x in rep if x is not None]) for rep in by_label[lab]
+                 if any(x is not None for x in rep)]
+            ax.plot(np.full(len(m), i + 0.32), m, "x", ms=4, color="k", zorder=4)
+
+        return (labels, pooled, f"{mc['replicates']} replicates x {k} starts",
+                {"jitter": 0.2, "ms": 2, "alpha": 0.35}, means)
+
+    return _fig_distributions(res, mc, path, panel)
 
 
 def recording_replicates(mc: dict, work=None) -> dict:

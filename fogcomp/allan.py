@@ -371,6 +371,49 @@ def _fit_model(basis: np.ndarray, avar: np.ndarray, rel: np.ndarray, iterations:
     return c
 
 
+@dataclass
+class _CurveFit:
+    """The weighted fit of the five-term Allan variance model to a curve, shared by
+    :func:`identify_noise` and :func:`identify_noise_terms` (which differ only in what they
+    report). ``rel``: relative error of each variance point; ``share``: each term's part of
+    the fitted variance at each tau; ``fit``: the fitted coefficients, rad/s units."""
+
+    t: np.ndarray
+    a: np.ndarray
+    e: np.ndarray | None
+    avar: np.ndarray
+    adev_rel: np.ndarray
+    rel: np.ndarray
+    basis: np.ndarray
+    c: np.ndarray
+    model: np.ndarray
+    share: np.ndarray
+    fit: dict
+
+    def lead_snr(self, j: int):
+        """Where term j leads the model (share >= 1/2) and its significance there, sigma."""
+        lead = self.share[:, j] >= 0.5
+        snr = math.sqrt(float(np.sum((self.share[lead, j] / self.rel[lead]) ** 2)))
+        return lead, snr
+
+
+def _fit_curve(taus, adev, adev_err, model_error, min_snr, floor_max_rel_err) -> _CurveFit:
+    t, a, e = _check_curve(taus, adev, adev_err)
+    for name, v in (("model_error", model_error), ("min_snr", min_snr),
+                    ("floor_max_rel_err", floor_max_rel_err)):
+        if not (isinstance(v, (int, float, np.integer, np.floating)) and np.isfinite(v) and v > 0):
+            raise ValueError(f"{name}: expected a positive finite number, got {v!r}")
+    avar = a**2
+    adev_rel = np.zeros_like(a) if e is None else e / a
+    rel = np.sqrt((2.0 * adev_rel) ** 2 + model_error**2)     # relative error of the variance
+    basis = np.column_stack([_BASIS[term](t) for term in NOISE_TERMS])
+    c = _fit_model(basis, avar, rel)
+    model = basis @ c
+    share = basis * c / model[:, None]
+    fit = {term: float(math.sqrt(c[j])) for j, term in enumerate(NOISE_TERMS)}
+    return _CurveFit(t, a, e, avar, adev_rel, rel, basis, c, model, share, fit)
+
+
 def identify_noise(taus, adev, adev_err=None, *, model_error: float = 0.1,
                    min_snr: float = 3.0, floor_max_rel_err: float = 0.25) -> NoiseParams:
     """Identify the IEEE Std 952 noise terms from an Allan deviation curve.
@@ -443,26 +486,13 @@ def identify_noise(taus, adev, adev_err=None, *, model_error: float = 0.1,
     .. [2] N. El-Sheimy, H. Hou, X. Niu, IEEE Trans. Instrum. Meas. 57(1), 140-149 (2008)
        (least-squares fit of the Allan variance model, cluster-count error bars).
     """
-    t, a, e = _check_curve(taus, adev, adev_err)
-    for name, v in (("model_error", model_error), ("min_snr", min_snr),
-                    ("floor_max_rel_err", floor_max_rel_err)):
-        if not (isinstance(v, (int, float, np.integer, np.floating)) and np.isfinite(v) and v > 0):
-            raise ValueError(f"{name}: expected a positive finite number, got {v!r}")
-    avar = a**2
-    adev_rel = np.zeros_like(a) if e is None else e / a
-    rel = np.sqrt((2.0 * adev_rel) ** 2 + model_error**2)     # relative error of the variance
-    basis = np.column_stack([_BASIS[term](t) for term in NOISE_TERMS])
-    c = _fit_model(basis, avar, rel)
-    model = basis @ c
-    share = basis * c / model[:, None]
-    fit = {term: float(math.sqrt(c[j])) for j, term in enumerate(NOISE_TERMS)}
-
+    f = _fit_curve(taus, adev, adev_err, model_error, min_snr, floor_max_rel_err)
+    t, a, avar, adev_rel, basis, c, fit = f.t, f.a, f.avar, f.adev_rel, f.basis, f.c, f.fit
     values: dict[str, float | None] = {}
     for j, term in enumerate(NOISE_TERMS):
         if term == "B":
             continue
-        lead = share[:, j] >= 0.5
-        snr = math.sqrt(float(np.sum((share[lead, j] / rel[lead]) ** 2)))
+        lead, snr = f.lead_snr(j)
         values[term] = fit[term] if (lead.any() and snr >= min_snr) else None
 
     reliable = adev_rel <= floor_max_rel_err
@@ -989,19 +1019,9 @@ def identify_noise_terms(taus, adev, adev_err=None, *, adev_low=None, adev_high=
             i = int(np.flatnonzero(hi < lo)[0])
             raise ValueError(f"adev_high: below adev_low at index {i} ({hi[i]} < {lo[i]})")
         adev_err = (hi - lo) / (2.0 * norm.ppf(0.5 + ci / 2.0))
-    t, a, e = _check_curve(taus, adev, adev_err)
-    for name, v in (("model_error", model_error), ("min_snr", min_snr),
-                    ("floor_max_rel_err", floor_max_rel_err)):
-        if not (isinstance(v, (int, float, np.integer, np.floating)) and np.isfinite(v) and v > 0):
-            raise ValueError(f"{name}: expected a positive finite number, got {v!r}")
-    avar = a**2
-    adev_rel = np.zeros_like(a) if e is None else e / a
-    rel = np.sqrt((2.0 * adev_rel) ** 2 + model_error**2)
-    basis = np.column_stack([_BASIS[term](t) for term in NOISE_TERMS])
-    c = _fit_model(basis, avar, rel)
-    model = basis @ c
-    share = basis * c / model[:, None]
-    fit = {term: float(math.sqrt(c[j])) for j, term in enumerate(NOISE_TERMS)}
+    f = _fit_curve(taus, adev, adev_err, model_error, min_snr, floor_max_rel_err)
+    t, a, e, avar, adev_rel, rel = f.t, f.a, f.e, f.avar, f.adev_rel, f.rel
+    basis, c, model, share, fit = f.basis, f.c, f.model, f.share, f.fit
 
     # Covariance of the kept variance coefficients (weights 1/(rel * model), as in the fit).
     sig = rel * model
@@ -1024,8 +1044,7 @@ def identify_noise_terms(taus, adev, adev_err=None, *, adev_low=None, adev_high=
     for j, term in enumerate(NOISE_TERMS):
         if term == "B":
             continue
-        lead = share[:, j] >= 0.5
-        snr = math.sqrt(float(np.sum((share[lead, j] / rel[lead]) ** 2)))
+        lead, snr = f.lead_snr(j)
         if lead.any() and snr >= min_snr:
             rng = (float(t[lead][0]), float(t[lead][-1]))
             terms[term] = NoiseTerm(term, "identified", fit[term], fit_sigma[term],

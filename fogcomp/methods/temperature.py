@@ -313,9 +313,7 @@ def train_lm(theta, x, t, hidden_size, max_epochs=1000, goal=1e-5):
     diag = np.arange(P) * (P + 1)
 
     def hidden(th):
-        z = th[:iw].reshape(H, m) @ xT
-        z += th[iw:ib, None]
-        return np.tanh(z, out=z)
+        return _hidden_t(th, xT, H)[0]
 
     h = hidden(theta)
     e = theta[ib:iv] @ h
@@ -371,9 +369,8 @@ def _forward_chunked(theta, x, H, chunk=1 << 15):
     """:func:`net_forward` of one network, in the (H, n) layout and in chunks (long records)."""
     xT = np.ascontiguousarray(x.T)
     out = np.empty(x.shape[0])
-    W2, b2 = theta[2 * H + H:2 * H + 2 * H], theta[-1]
     for s in range(0, x.shape[0], chunk):
-        h = _hidden_t(theta, xT[:, s:s + chunk], H)[0]
+        h, _, W2, b2 = _hidden_t(theta, xT[:, s:s + chunk], H)
         out[s:s + chunk] = W2 @ h + b2
     return out
 

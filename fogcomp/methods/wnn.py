@@ -393,18 +393,6 @@ def _loss_grad_t(Xs, t, W, w_out, a, b, w0):
     return loss, (g_w, g_out, g_a, g_b)
 
 
-def _sample_grad(x, t, W, w_out, a, b, w0):
-    """Gradient of the per-sample loss E(n) = e(n)^2 / 2 (paper eq. 8) for one window ``x``,
-    shape (k,); returns the error e and (dE/dW, dE/dw_out, dE/da, dE/db)."""
-    u = (x @ W - b) / a
-    g = np.exp(-0.5 * u * u)
-    c = np.cos(w0 * u)
-    h = g * c
-    e = float(h @ w_out) - t
-    gz = g * (u * c + w0 * np.sin(w0 * u)) * (-e) * w_out / a
-    return e, (np.outer(x, gz), e * h, -gz * u, -gz)
-
-
 # ---------------------------------------------------------------------------------------------
 def _positive(name, value, allow_zero=False):
     ok = (isinstance(value, numbers.Real) and not isinstance(value, bool)

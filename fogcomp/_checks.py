@@ -38,3 +38,23 @@ def _mode(mode) -> str:
         raise ValueError(f"mode: unknown signal extension mode {mode!r}; choose one of "
                          f"{pywt.Modes.modes}")
     return mode
+
+
+def _sample_rate(fs) -> float:
+    """A sample rate in Hz: a positive finite number (not a bool)."""
+    if isinstance(fs, bool) or not isinstance(fs, (int, float, np.integer, np.floating)) \
+            or not np.isfinite(fs) or fs <= 0:
+        raise ValueError(f"fs: sample rate must be a positive finite number in Hz, got {fs!r}")
+    return float(fs)
+
+
+def _random_state(rs) -> None:
+    """None (refused at fit by Compensator._rng), a non-negative integer, or what
+    ``numpy.random.default_rng`` takes besides: a Generator, BitGenerator or SeedSequence."""
+    if rs is None or isinstance(rs, (np.random.Generator, np.random.BitGenerator,
+                                     np.random.SeedSequence)):
+        return
+    if isinstance(rs, (int, np.integer)) and not isinstance(rs, (bool, np.bool_)) and rs >= 0:
+        return
+    raise ValueError(f"random_state: must be a non-negative integer seed, a numpy "
+                     f"SeedSequence, BitGenerator or Generator, or None; got {rs!r}")

@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import nnls
 
-from ._checks import _signal
+from ._checks import _sample_rate, _signal
 
 from .units import ARCSEC, DEG_RT_H, DPH, DPH_PER_H, DPH_RT_H
 
@@ -130,10 +130,7 @@ def _check_rate(rate, name: str = "rate", min_len: int = 3) -> np.ndarray:
 
 
 def _check_fs(fs) -> float:
-    if isinstance(fs, bool) or not isinstance(fs, (int, float, np.integer, np.floating)) \
-            or not np.isfinite(fs) or fs <= 0:
-        raise ValueError(f"fs: sample rate must be a positive finite number in Hz, got {fs!r}")
-    return float(fs)
+    return _sample_rate(fs)
 
 
 def _averaging_factors(taus, fs: float, n: int) -> np.ndarray:

@@ -24,6 +24,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from ._checks import _random_state
+
 __all__ = [
     "GyroData",
     "Compensator",
@@ -235,14 +237,7 @@ class Compensator:
             Naming the hyperparameter and what was expected.
         """
         if type(self).random:
-            rs = getattr(self, "random_state", None)
-            ok = (rs is None or isinstance(rs, (np.random.Generator, np.random.BitGenerator,
-                                           np.random.SeedSequence))
-                  or (isinstance(rs, (int, np.integer)) and not isinstance(rs, (bool, np.bool_))
-                      and rs >= 0))
-            if not ok:
-                raise ValueError(f"random_state: must be a non-negative integer seed, a numpy "
-                                 f"SeedSequence, BitGenerator or Generator, or None; got {rs!r}")
+            _random_state(getattr(self, "random_state", None))
         validate = getattr(self, "_validate", None)
         if callable(validate):
             validate()

@@ -44,6 +44,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._checks import _sample_rate
 from .units import G0
 
 __all__ = ["FERRARIS_PARTS", "TriadCalibration", "ferraris_calibration"]
@@ -242,9 +243,7 @@ def ferraris_calibration(acc: dict, gyro: dict, fs: float, angle: float | dict,
     .. [1] F. Ferraris, U. Grimaldi, M. Parvis, Sensors and Materials 7(5), 311-330 (1995),
        eqs. 9, 13-14, 19-23.
     """
-    if not (isinstance(fs, (int, float, np.integer, np.floating)) and not isinstance(fs, bool)
-            and math.isfinite(fs) and fs > 0):
-        raise ValueError(f"fs: sample rate must be a positive finite number in Hz, got {fs!r}")
+    _sample_rate(fs)
     if not (isinstance(g, (int, float, np.floating)) and math.isfinite(g) and g > 0):
         raise ValueError(f"g: expected a positive gravity in m/s^2, got {g!r}")
     angles = {}

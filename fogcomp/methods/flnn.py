@@ -38,6 +38,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.linalg.blas import dtrsv as _dtrsv
 
+from .._checks import _random_state
 from ..base import Compensator, DivergenceError, GyroData, register
 from ..units import DPH
 
@@ -635,18 +636,6 @@ def _check_rcond(rcond) -> float:
     return float(rcond)
 
 
-def _check_random_state(rs) -> None:
-    """None (refused at fit by Compensator._rng), a non-negative integer, or what
-    ``numpy.random.default_rng`` takes besides: a Generator, BitGenerator or SeedSequence."""
-    if rs is None or isinstance(rs, (np.random.Generator, np.random.BitGenerator,
-                                     np.random.SeedSequence)):
-        return
-    if isinstance(rs, (int, np.integer)) and not isinstance(rs, bool) and rs >= 0:
-        return
-    raise ValueError(f"random_state: expected a non-negative integer seed or a numpy "
-                     f"Generator, BitGenerator or SeedSequence, got {rs!r}")
-
-
 @register
 class Flnn(_FlnnBase):
     """Functional-link neural network trained by (normalised) LMS, as in the paper.
@@ -783,7 +772,7 @@ class Flnn(_FlnnBase):
         if not (_real(self.dwell_tol_g) and self.dwell_tol_g >= 0):
             raise ValueError(f"dwell_tol_g: must be a finite number >= 0 (g), got "
                              f"{self.dwell_tol_g!r}")
-        _check_random_state(self.random_state)
+        _random_state(self.random_state)
 
     def _fit(self, data: GyroData, error: np.ndarray) -> None:
         self._validate()

@@ -38,7 +38,8 @@ from scipy.linalg.lapack import dgesv as _dgesv
 
 from ..base import Compensator, DivergenceError, GyroData, register
 from ..units import DPH
-from .flnn import (DEFAULT_RCOND, _check_random_state, _restore_ident, _state_with_ident, _warn,
+from .._checks import _random_state
+from .flnn import (DEFAULT_RCOND, _restore_ident, _state_with_ident, _warn,
                    lstsq_identify)
 
 __all__ = ["PolyTemp", "Bp", "AcoBp", "ConvergenceWarning", "TrainingRangeWarning", "train_lm",
@@ -519,7 +520,7 @@ class Bp(Compensator):
         if not (isinstance(self.precision, str) and self.precision in PRECISIONS):
             raise ValueError(f"precision: expected one of {list(PRECISIONS)}, got "
                              f"{self.precision!r}")
-        _check_random_state(self.random_state)
+        _random_state(self.random_state)
 
     @staticmethod
     def _inputs(data: GyroData) -> np.ndarray:

@@ -27,7 +27,7 @@ from scipy import signal
 
 from .._checks import _mode, _wavelet
 from ..base import Compensator, DivergenceError, GyroData, register
-from .flnn import _check_random_state
+from .._checks import _random_state
 
 __all__ = [
     "WaveletNeuralNetwork",
@@ -619,7 +619,7 @@ class WaveletNeuralNetwork(Compensator):
         _int_at_least("max_iter", self.max_iter, 0)
         _choice("normalization", self.normalization, NORMALIZATIONS)
         _choice("training", self.training, TRAININGS)
-        _check_random_state(self.random_state)
+        _random_state(self.random_state)
 
     # -- fitting ---------------------------------------------------------------------------------
     def _fit(self, data: GyroData, error) -> None:

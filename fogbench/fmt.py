@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["KEY_METRICS", "fmt", "md_table"]
+__all__ = ["KEY_METRICS", "fmt", "md_table", "decimation", "ci_text", "p_better_text"]
 
 KEY_METRICS = ("std_dps", "rmse_dph", "drift_rms_dph", "bias_stability_100s_dph",
                "angle_error_final_deg", "coef_rms_error_dph", "arw_deg_rt_h",
@@ -33,3 +33,30 @@ def md_table(header: list[str], rows: list[list[str]]) -> str:
     out = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     out += ["| " + " | ".join(r) + " |" for r in rows]
     return "\n".join(out)
+
+
+def decimation(n: int, max_points: int) -> int:
+    """The display stride k (every k-th sample) that keeps ``n`` samples under ``max_points``."""
+    return max(1, int(math.ceil(n / max_points)))
+
+
+def ci_text(sm: dict | None, metric: str) -> str:
+    """``mean [lo, hi]`` of a replicate summary, or why there is none."""
+    if not sm or not sm.get("n"):
+        return "not computed" if not sm or not sm.get("n_failed") else "failed"
+    txt = fmt(sm["mean"], metric)
+    if sm.get("ci_low") is not None and sm.get("ci_high") is not None:
+        txt += f" [{fmt(sm['ci_low'], metric)}, {fmt(sm['ci_high'], metric)}]"
+    if sm.get("n_failed"):
+        txt += f" ({sm['n_failed']} failed)"
+    return txt
+
+
+def p_better_text(p: dict) -> str:
+    """``mean [lo, hi]`` of a probability over replicates, the t-interval clipped to [0, 1]."""
+    if not p or not p.get("n"):
+        return "not computed"
+    txt = f"{p['mean']:.2f}"
+    if p.get("ci_low") is not None and p.get("ci_high") is not None:
+        txt += f" [{max(0.0, p['ci_low']):.2f}, {min(1.0, p['ci_high']):.2f}]"
+    return txt

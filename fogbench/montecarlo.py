@@ -248,10 +248,8 @@ def _over_runs(docs, prot: str, runs: list[str], label: str, metric: str) -> np.
     return np.mean(cols, axis=0) if cols else np.full(len(docs), math.nan)
 
 
-def _improvement(docs, prot, runs, better, than, metric) -> np.ndarray:
-    """Per replicate: 100 (1 - better / than) of the means over ``runs``."""
-    a = _over_runs(docs, prot, runs, better, metric)
-    b = _over_runs(docs, prot, runs, than, metric)
+def _improvement(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Per replicate: 100 (1 - a / b), of two methods' means over the scored runs."""
     with np.errstate(divide="ignore", invalid="ignore"):
         return 100.0 * (1.0 - a / b)
 
@@ -294,12 +292,13 @@ def _over_seeds(docs, prot: str, runs: list[str], better: str, than: str, metric
     either method has no seeds. A start that failed (no value) is left out of both and
     counted in ``failed_starts``."""
     direction = "higher" if metric.endswith("_pct") else "lower"
-    ps, pooled = [], {better: [], than: []}
+    ps, pooled, ks = [], {better: [], than: []}, set()
     for d in docs:
         a = _seed_values(d, prot, runs, better, metric)
         b = _seed_values(d, prot, runs, than, metric)
         if a is None or b is None:
             return None
+        ks.add(len(a))
         ps.append(p_better(a, b, direction))
         pooled[better].extend(a.tolist())
         pooled[than].extend(b.tolist())
@@ -312,7 +311,6 @@ def _over_seeds(docs, prot: str, runs: list[str], better: str, than: str, metric
         v = v[np.isfinite(v)]
         out[lab] = ({"median": float(np.median(v)), "q05": float(np.quantile(v, 0.05)),
                      "q95": float(np.quantile(v, 0.95)), "n": int(v.size)} if v.size else None)
-    ks = {len(_seed_values(d, prot, runs, better, metric)) for d in docs}
     out["seeds_per_replicate"] = ks.pop() if len(ks) == 1 else None
     return out
 
@@ -407,17 +405,18 @@ def aggregate(docs: list[dict], sc, plan) -> dict:
             runs = [r for r in runs_of[prot.name] if c.run is None or r == c.run]
             if not runs:
                 continue
-            vals = _improvement(docs, prot.name, runs, c.better, c.than, c.metric)
+            a, b = (_over_runs(docs, prot.name, runs, lab, c.metric)
+                    for lab in (c.better, c.than))
+            vals = _improvement(a, b)
             if np.all(np.isnan(vals)) and not any(
                     _is_num(d["protocols"].get(prot.name, {}).get("runs", {}).get(runs[0], {})
                             .get(c.than, {}).get(c.metric)) for d in docs):
                 continue
-            ovals = _improvement(docs, prot.name, runs, "oracle", c.than, c.metric)
+            ovals = _improvement(_over_runs(docs, prot.name, runs, "oracle", c.metric), b)
             v = S.claim_verdict(vals, c.min_pct, c.max_pct,
                                 oracle=ovals if oracle_bounds else None, better="higher")
-            pair = S.paired_difference(_over_runs(docs, prot.name, runs, c.better, c.metric),
-                                       _over_runs(docs, prot.name, runs, c.than, c.metric),
-                                       better="higher" if c.metric.endswith("_pct") else "lower")
+            pair = S.paired_difference(a, b, better="higher" if c.metric.endswith("_pct")
+                                       else "lower")
             claims.append({"text": c.text, "source": c.source, "protocol": prot.name,
                            "in_sample": prot.in_sample, "metric": c.metric, "better": c.better,
                            "than": c.than, "runs": runs, "min_pct": c.min_pct,

@@ -97,7 +97,7 @@ import numpy as np
 
 from fogcomp.units import DPH, DPS
 
-from .fmt import KEY_METRICS, fmt, md_table
+from .fmt import KEY_METRICS, decimation, fmt, md_table
 
 __all__ = ["write_recording", "view", "blueprint_for", "ReplicatesError", "decimation", "psd_interval",
            "MAX_SERIES_POINTS", "MAX_POSE_POINTS", "TIMELINE", "REPLICATE_TIMELINE",
@@ -131,11 +131,6 @@ _PALETTE = [(31, 119, 180), (214, 39, 40), (255, 127, 14), (148, 103, 189), (227
 _RUN_PALETTE = [(31, 119, 180), (255, 127, 14), (44, 160, 44), (214, 39, 40), (148, 103, 189),
                 (140, 86, 75), (227, 119, 194), (188, 189, 34), (23, 190, 207)]
 _GRID = (128, 128, 128, 110)
-
-
-def decimation(n: int, max_points: int) -> int:
-    """The display stride k (every k-th sample) that keeps ``n`` samples under ``max_points``."""
-    return max(1, int(math.ceil(n / max_points)))
 
 
 def _p(*parts: str) -> str:

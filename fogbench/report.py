@@ -21,7 +21,7 @@ from fogcomp import metrics as M  # noqa: E402
 from fogcomp.allan import oadev  # noqa: E402
 from fogcomp.units import DPH, DPS  # noqa: E402
 
-from .fmt import KEY_METRICS, fmt, md_table  # noqa: E402
+from .fmt import KEY_METRICS, ci_text, decimation, fmt, md_table, p_better_text  # noqa: E402
 from .io import atomic_write_bytes, atomic_write_text, run_arrays, versions  # noqa: E402
 from .outdir import check_out_dir, new_part_dir, replace_dir  # noqa: E402
 from .runner import ScenarioResult, TERM_NAMES, thermal_segments, write_metrics  # noqa: E402
@@ -84,8 +84,7 @@ def _save(fig, path: Path):
 
 
 def _decimate(t, *ys):
-    n = t.size
-    step = max(1, int(math.ceil(n / MAX_PLOT_POINTS)))
+    step = decimation(t.size, MAX_PLOT_POINTS)
     return (t[::step],) + tuple(y[::step] for y in ys), step
 
 
@@ -789,18 +788,6 @@ def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_d
 
 # ---------------------------------------------------------------------------------------------
 # Monte Carlo: the distributions over replicates
-def _ci_text(sm: dict | None, metric: str) -> str:
-    """``mean [lo, hi]`` of a replicate summary, or why there is none."""
-    if not sm or not sm.get("n"):
-        return "not computed" if not sm or not sm.get("n_failed") else "failed"
-    txt = fmt(sm["mean"], metric)
-    if sm.get("ci_low") is not None and sm.get("ci_high") is not None:
-        txt += f" [{fmt(sm['ci_low'], metric)}, {fmt(sm['ci_high'], metric)}]"
-    if sm.get("n_failed"):
-        txt += f" ({sm['n_failed']} failed)"
-    return txt
-
-
 def key_metric(mc: dict, protocol: str, plan) -> str | None:
     """The metric a protocol's distribution figure shows: a claim's, else the first key one."""
     have = mc["over_runs"].get(protocol, {}).get("raw", {})
@@ -936,10 +923,10 @@ def render_montecarlo(res: ScenarioResult, mc: dict, fig_names: dict) -> str:
             first = c["paired"].get("first_better")
             L.append(f"- {c['source']}: \"{c['text']}\" — `{c['protocol']}`{tag}: "
                      f"{c['better']} vs {c['than']} on {c['metric']}: "
-                     f"{_ci_text(sm, '_pct')} % (claim {rng}): **{c['verdict']}**; the claim "
+                     f"{ci_text(sm, '_pct')} % (claim {rng}): **{c['verdict']}**; the claim "
                      f"held in {held} of replicates; {c['better']} better than {c['than']} in "
                      f"{'–' if first is None else f'{100 * first:.0f} %'} of replicates. "
-                     f"Oracle over {c['than']}: {_ci_text(osm, '_pct')} %"
+                     f"Oracle over {c['than']}: {ci_text(osm, '_pct')} %"
                      + ("" if c["oracle_bounds_claim"] else
                         f" (not a bound here: {c['better']} also filters noise)") + "."
                      + over_seeds_text(c))
@@ -965,7 +952,7 @@ def render_montecarlo(res: ScenarioResult, mc: dict, fig_names: dict) -> str:
                         pv.metric)
                     allan = pv.metric in ("arw_deg_rt_h", "bias_instability_dph", "rrw_dph_rt_h")
                     if sm and sm.get("n"):
-                        ours = _ci_text({**sm, "n_failed": 0}, pv.metric)
+                        ours = ci_text({**sm, "n_failed": 0}, pv.metric)
                         total = sm["n"] + (sm.get("n_failed") or 0)
                         if sm.get("n_failed"):
                             ours += (f", identified in {sm['n']} of {total} replicates" if allan
@@ -985,7 +972,7 @@ def render_montecarlo(res: ScenarioResult, mc: dict, fig_names: dict) -> str:
         if not metrics:
             continue
         flag = " (IN-SAMPLE)" if prot.in_sample else ""
-        rows = [[lab] + [_ci_text(po.get(lab, {}).get(m), m) for m in metrics] for lab in po]
+        rows = [[lab] + [ci_text(po.get(lab, {}).get(m), m) for m in metrics] for lab in po]
         L += [f"### `{prot.name}`{flag}: mean over scored runs, over replicates", "",
               md_table(["method"] + metrics, rows), ""]
         spread = mc.get("seed_spread", {}).get(prot.name, {})
@@ -1008,16 +995,6 @@ def render_montecarlo(res: ScenarioResult, mc: dict, fig_names: dict) -> str:
               f"![distributions over method starts]({fig_names[('starts',)]})", ""]
     L += render_bands(res, mc)
     return "\n".join(L)
-
-
-def p_better_text(p: dict) -> str:
-    """``mean [lo, hi]`` of a probability over replicates, the t-interval clipped to [0, 1]."""
-    if not p or not p.get("n"):
-        return "not computed"
-    txt = f"{p['mean']:.2f}"
-    if p.get("ci_low") is not None and p.get("ci_high") is not None:
-        txt += f" [{max(0.0, p['ci_low']):.2f}, {min(1.0, p['ci_high']):.2f}]"
-    return txt
 
 
 def over_seeds_text(c: dict) -> str:

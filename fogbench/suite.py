@@ -10,12 +10,12 @@ import traceback
 from pathlib import Path
 
 from .executor import SerialExecutor, engine_label, make_executor
-from .fmt import fmt
+from .fmt import ci_text, fmt, md_table, p_better_text
 from .io import atomic_write_text
 from .montecarlo import MonteCarloError, ScenarioMC
 from .outdir import OutDirError, check_out_dir
 from .progress import Progress
-from .report import p_better_text, write_run_dir
+from .report import write_run_dir
 from .scenario import RUNNER_SECTIONS, ScenarioError, load_plan, load_scenario
 
 __all__ = ["run_suite", "check_bounds", "summary_markdown"]
@@ -189,8 +189,6 @@ def summary_markdown(results: list[dict], plans: dict, out: Path, violations: li
     """The suite's summary: per scenario and protocol, every method's key metrics as mean and
     interval over replicates, the claims' verdicts and the rankings. Nothing in it depends on
     the machine or the day (no dates, no wall times), so a re-run leaves it unchanged."""
-    from .report import _ci_text
-
     L = [SUMMARY_TITLE, "",
          "Written by `fogbench suite` (`make run`); the scenario reports it links "
          "(`<scenario>/report.md`, figures, `metrics.json`, `recording.rrd`) are written beside "
@@ -221,7 +219,7 @@ def summary_markdown(results: list[dict], plans: dict, out: Path, violations: li
                 po = mc["over_runs"].get(pname, {})
                 metrics = [m for m in SUMMARY_METRICS if m != "fit_time_s" and any(
                     m in po.get(lab, {}) for lab in po)]
-                rows = [[lab] + [_ci_text(po[lab].get(m), m) for m in metrics] for lab in po]
+                rows = [[lab] + [ci_text(po[lab].get(m), m) for m in metrics] for lab in po]
             else:
                 labels = []
                 for by_method in pd["runs"].values():
@@ -232,8 +230,7 @@ def summary_markdown(results: list[dict], plans: dict, out: Path, violations: li
                     isinstance(_mean_over_runs(pd, lab, m), float) for lab in labels)]
                 rows = [[lab] + [fmt(_mean_over_runs(pd, lab, m), m) for m in metrics]
                         for lab in labels]
-            L += ["| method | " + " | ".join(metrics) + " |", "|---|" + "---|" * len(metrics)]
-            L += ["| " + " | ".join(row) + " |" for row in rows] + [""]
+            L += [md_table(["method"] + metrics, rows), ""]
         if mc:
             if mc["claims"]:
                 L += ["Claims:", ""]
@@ -244,9 +241,9 @@ def summary_markdown(results: list[dict], plans: dict, out: Path, violations: li
                     held = "–" if c["held"] is None else f"{100 * c['held']:.0f} %"
                     L.append(f"- {c['source']}: \"{c['text']}\" — `{c['protocol']}`{tag}: "
                              f"{c['better']} vs {c['than']} on {c['metric']}: "
-                             f"{_ci_text(c['summary'], '_pct')} % (claim {lo}..{hi} %): "
+                             f"{ci_text(c['summary'], '_pct')} % (claim {lo}..{hi} %): "
                              f"**{c['verdict']}** (held in {held} of replicates; oracle "
-                             f"{_ci_text(c['oracle_improvement'], '_pct')} %"
+                             f"{ci_text(c['oracle_improvement'], '_pct')} %"
                              + ("" if c["oracle_bounds_claim"] else ", not a bound for a filter")
                              + ")" + _start_text(c) + ".")
                 L.append("")

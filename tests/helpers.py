@@ -1,4 +1,5 @@
-"""What several test files share: where the real data is, and the command line run in-process."""
+"""What several test files share: where the real data is, a small scenario, and the command
+line run in-process."""
 
 from __future__ import annotations
 
@@ -18,6 +19,16 @@ def realdata_dir() -> Path:
     return Path(__file__).resolve().parents[2] / "shared" / "realdata"
 
 
+def need_realdata(*paths: Path) -> None:
+    """Skip the calling test, naming what is missing, unless every path exists."""
+    import pytest
+
+    missing = [p for p in paths if not Path(p).exists()]
+    if missing:
+        pytest.skip(f"real data not found at {missing[0]} (set FOGBENCH_REALDATA to the "
+                    "realdata folder to run this test)")
+
+
 def run_cli(*args, cwd=None) -> tuple[int, str, str]:
     """``fogbench ARGS`` in this process, as the console command runs it: (exit code, stdout,
     stderr). The SIGTERM handler the command installs is put back afterwards."""
@@ -35,3 +46,38 @@ def run_cli(*args, cwd=None) -> tuple[int, str, str]:
     finally:
         signal.signal(signal.SIGTERM, handler)
     return code, out.getvalue(), err.getvalue()
+
+
+#: A small valid scenario (tactical FOG, two 30 s runs at 10 Hz, one wavelet method), the
+#: seed that test_safety edits and the fuzzer mutates.
+SMALL_SCENARIO = """
+[scenario]
+name = "tiny"
+sample_rate_hz = 10.0
+
+[fog]
+preset = "tactical"
+
+[[runs]]
+name = "a"
+seed = 1
+[[runs.motion]]
+type = "hold"
+duration_s = 30.0
+
+[[runs]]
+name = "b"
+seed = 2
+[[runs.motion]]
+type = "rate"
+rate_dps = 10.0
+duration_s = 30.0
+
+[[protocols]]
+name = "p"
+fit = ["a"]
+score = ["b"]
+
+[[methods]]
+name = "wavelet_soft"
+"""

@@ -31,7 +31,7 @@ DEG = math.pi / 180.0          # written out here, independent of fogcomp.units
 
 # ---------------------------------------------------------------------------------------------
 # Real data: /work/shared/realdata (or $FOGBENCH_REALDATA), never copied into the repository.
-from helpers import realdata_dir as _realdata_dir  # noqa: E402
+from helpers import need_realdata, realdata_dir as _realdata_dir  # noqa: E402
 
 
 ADIS_DIR = _realdata_dir() / "adis16405_static"
@@ -41,9 +41,7 @@ ADIS_DIR = _realdata_dir() / "adis16405_static"
 def adis():
     """The ADIS16405 static log as {column name: array} plus its reference Allan deviation."""
     log, ref = ADIS_DIR / "imu1.csv.gz", ADIS_DIR / "reference_oadev.csv"
-    if not (log.is_file() and ref.is_file()):
-        pytest.skip(f"real ADIS16405 data not found in {ADIS_DIR} (set FOGBENCH_REALDATA to the "
-                    "realdata folder to run this test)")
+    need_realdata(log, ref)
     with gzip.open(log, "rt") as f:
         names = f.readline().strip().split(",")
         values = np.loadtxt(f, delimiter=",", ndmin=2)

@@ -25,7 +25,7 @@ from allantools import ci as at_ci  # noqa: E402
 DEG = math.pi / 180.0
 
 
-from helpers import realdata_dir as _realdata_dir  # noqa: E402
+from helpers import need_realdata, realdata_dir as _realdata_dir  # noqa: E402
 
 
 FOG_DIR = _realdata_dir() / "fog_allan_curves"
@@ -156,9 +156,7 @@ FOGS = {   # file, README's ARW reading at tau = 1 s (deg/sqrt(h)), per axis low
 
 @pytest.fixture(scope="module")
 def fog_curves():
-    if not FOG_DIR.is_dir():
-        pytest.skip(f"real FOG curves not found in {FOG_DIR} (set FOGBENCH_REALDATA to the "
-                    "realdata folder to run this test)")
+    need_realdata(FOG_DIR)
     import pandas as pd
 
     out = {}

@@ -14,7 +14,7 @@ from fogcomp.calibration import FERRARIS_PARTS, TriadCalibration, ferraris_calib
 DEG = math.pi / 180.0
 
 
-from helpers import realdata_dir as _realdata_dir  # noqa: E402
+from helpers import need_realdata, realdata_dir as _realdata_dir  # noqa: E402
 
 
 IMUCAL = _realdata_dir() / "imucal_ferraris"
@@ -22,8 +22,7 @@ IMUCAL = _realdata_dir() / "imucal_ferraris"
 
 def test_reproduces_imucal_example_cal():
     session, ref_file = IMUCAL / "annotated_session.csv", IMUCAL / "example_cal.json"
-    if not (session.is_file() and ref_file.is_file()):
-        pytest.skip(f"imucal data not found in {IMUCAL} (set FOGBENCH_REALDATA)")
+    need_realdata(session, ref_file)
     import pandas as pd
 
     df = pd.read_csv(session)

@@ -12,12 +12,11 @@ from pathlib import Path
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from helpers import run_cli
+from helpers import SMALL_SCENARIO, run_cli
 
 ROOT = Path(__file__).resolve().parents[1]
 SEEDS = {p.name: p.read_text() for p in sorted((ROOT / "scenarios").glob("*.toml"))}
-SMALL = (ROOT / "tests" / "test_safety.py").read_text().split('SCENARIO = """')[1].split('"""')[0]
-SEEDS["small.toml"] = SMALL
+SEEDS["small.toml"] = SMALL_SCENARIO
 
 KEY_LINE = re.compile(r'^(\s*)([A-Za-z0-9_]+)(\s*=\s*)(.+)$')
 BAD_SCALARS = ["nan", "inf", "-inf", "1e308", "-1e308", "-1", "0", "1e12", "-0.0", '"ten"',
@@ -124,7 +123,7 @@ def test_the_fuzzer_reaches_refusals_and_loads():
             p.write_text(text)
             assert _cli(["check", str(p)])[0] == 0, name
         p = Path(d) / "bad.toml"
-        p.write_text(SMALL.replace("sample_rate_hz = 10.0", "sample_rate_hz = nan"))
+        p.write_text(SMALL_SCENARIO.replace("sample_rate_hz = 10.0", "sample_rate_hz = nan"))
         code, err = _cli(["check", str(p)])
         assert code == 2 and "sample_rate_hz" in err
     assert os.path.isdir(ROOT / "scenarios")

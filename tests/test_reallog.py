@@ -18,7 +18,7 @@ from fogbench.reallog import LogError, add_commands
 DEG = math.pi / 180.0
 
 
-from helpers import realdata_dir as _realdata_dir  # noqa: E402
+from helpers import need_realdata, realdata_dir as _realdata_dir  # noqa: E402
 
 
 REAL = _realdata_dir()
@@ -35,19 +35,13 @@ def run(argv):
         return 2, str(exc)
 
 
-def _need(path: Path):
-    if not path.exists():
-        pytest.skip(f"real data not found at {path} (set FOGBENCH_REALDATA to the realdata "
-                    "folder to run this test)")
-
-
 # ---------------------------------------------------------------------------------------------
 # Real data
 def test_allan_on_adis16405_reproduces_avar_and_identifies_terms(tmp_path, capsys):
     log, ref = REAL / "adis16405_static" / "imu1.csv.gz", REAL / "adis16405_static" / \
         "reference_oadev.csv"
-    _need(log)
-    _need(ref)
+    need_realdata(log)
+    need_realdata(ref)
     import pandas as pd
 
     code, err = run(["allan", log, "--out", tmp_path / "a"])
@@ -79,7 +73,7 @@ def test_allan_on_adis16405_reproduces_avar_and_identifies_terms(tmp_path, capsy
 
 def test_allan_curve_mode_on_fog_curves(tmp_path, capsys):
     f = REAL / "fog_allan_curves" / "ln200_gyro_oadev.csv"
-    _need(f)
+    need_realdata(f)
     code, err = run(["allan", "--curve", f, "--curve-ci", "0.95", "--out", tmp_path / "c"])
     assert code == 0, err
     doc = json.loads((tmp_path / "c" / "allan.json").read_text())
@@ -93,8 +87,8 @@ def test_allan_curve_mode_on_fog_curves(tmp_path, capsys):
 def test_ferraris_calibrate_and_compensate_imucal_session(tmp_path):
     session, ref = REAL / "imucal_ferraris" / "annotated_session.csv", \
         REAL / "imucal_ferraris" / "example_cal.json"
-    _need(session)
-    _need(ref)
+    need_realdata(session)
+    need_realdata(ref)
     cols = "acc_x=acc_x:au,acc_y=acc_y:au,acc_z=acc_z:au,gyro_x=gyr_x:au,gyro_y=gyr_y:au," \
            "gyro_z=gyr_z:au"
     code, err = run(["calibrate", "ferraris", session, "--fs", "204.8", "--angle-deg", "-360",
@@ -540,7 +534,7 @@ def test_only_the_columns_used_need_a_unit(tmp_path):
 
 def test_compensate_says_a_column_comes_from_the_model(tmp_path):
     session = REAL / "imucal_ferraris" / "annotated_session.csv"
-    _need(session)
+    need_realdata(session)
     import pandas as pd
 
     cols = "acc_x=acc_x:au,acc_y=acc_y:au,acc_z=acc_z:au,gyro_x=gyr_x:au,gyro_y=gyr_y:au," \

@@ -352,13 +352,13 @@ def test_simulate_writes_saturation_flags_and_the_sensor_columns(tmp_path):
     """`fogbench simulate`: ``saturated`` (n, a) bool is set exactly where the true rate is
     beyond the 100 deg/s range; the sensor reading is quantised to its 0.0625 C step and lags
     the true coil; the documented columns are all there."""
-    from fogbench.cli import main
     from fogbench.io import read_run
+    from helpers import run_cli
 
     scn = tmp_path / "io_tiny.toml"
     scn.write_text(SIM_SCENARIO)
     out = tmp_path / "sim"
-    assert main(["simulate", str(scn), "--out", str(out), "--quiet"]) == 0
+    assert run_cli("simulate", str(scn), "--out", str(out), "--quiet")[0] == 0
     a = read_run(out / "spin.npz")
     n = a["t_s"].size
     for key in ("chamber_c", "coil_c", "housing_c", "coil_rate_c_per_s", "sensor_c",

@@ -16,43 +16,11 @@ from pathlib import Path
 import pytest
 
 from fogbench.cli import main
-from helpers import run_cli
+from helpers import SMALL_SCENARIO as SCENARIO, run_cli
 from fogbench.outdir import MARKER
 from fogbench.scenario import ScenarioError, load_plan, load_scenario, RUNNER_SECTIONS
 
 ROOT = Path(__file__).resolve().parents[1]
-
-SCENARIO = """
-[scenario]
-name = "tiny"
-sample_rate_hz = 10.0
-
-[fog]
-preset = "tactical"
-
-[[runs]]
-name = "a"
-seed = 1
-[[runs.motion]]
-type = "hold"
-duration_s = 30.0
-
-[[runs]]
-name = "b"
-seed = 2
-[[runs.motion]]
-type = "rate"
-rate_dps = 10.0
-duration_s = 30.0
-
-[[protocols]]
-name = "p"
-fit = ["a"]
-score = ["b"]
-
-[[methods]]
-name = "wavelet_soft"
-"""
 
 
 def snapshot(root: Path) -> dict[str, str]:

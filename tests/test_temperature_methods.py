@@ -215,16 +215,20 @@ def test_lm_reaches_the_minimum_scipy_lm_reaches():
     assert np.all(np.diff(losses) < 0)                  # every accepted step lowers the MSE
 
 
+def _teacher_problem():
+    """Inputs, a target a 2-9-1 network makes itself, and a start near that network."""
+    rng = np.random.default_rng(8)
+    teacher = rng.uniform(-1, 1, 37)
+    x = rng.uniform(-1, 1, (400, 2))
+    return x, net_forward(teacher, x, 9), teacher + 0.05 * rng.normal(size=37)
+
+
 def test_lm_fits_a_network_it_can_represent_to_the_goal():
     """A target made by a 2-9-1 network itself: LM from a nearby start reaches the goal 1e-8
     in a few epochs, 1,000 epochs of gradient descent from the same start do not."""
     from fogcomp.methods.temperature import train_lm
 
-    rng = np.random.default_rng(8)
-    teacher = rng.uniform(-1, 1, 37)
-    x = rng.uniform(-1, 1, (400, 2))
-    t = net_forward(teacher, x, 9)
-    start = teacher + 0.05 * rng.normal(size=37)
+    x, t, start = _teacher_problem()
     theta, losses, stop = train_lm(start, x, t, 9, max_epochs=1000, goal=1e-8)
     assert stop == "goal" and losses[-1] <= 1e-8 and len(losses) < 50
     th = start.copy()
@@ -297,11 +301,7 @@ def test_lm_follows_its_slow_twin_to_the_goal():
     reach)."""
     from fogcomp.methods.temperature import train_lm
 
-    rng = np.random.default_rng(8)
-    teacher = rng.uniform(-1, 1, 37)
-    x = rng.uniform(-1, 1, (400, 2))
-    t = net_forward(teacher, x, 9)
-    start = teacher + 0.05 * rng.normal(size=37)
+    x, t, start = _teacher_problem()
     fast = train_lm(start, x, t, 9, max_epochs=1000, goal=1e-8)
     slow = _train_lm_slow(start, x, t, 9, max_epochs=1000, goal=1e-8)
     assert fast[2] == slow[2] == "goal"

@@ -283,6 +283,35 @@ def _part_dirs(root: Path) -> list[Path]:
     return [p for p in root.rglob(".*") if p.name.endswith((".part", ".old"))]
 
 
+def _signal_suite(cwd, sig, ready, *, wait_s, after_s, timeout_s, hung):
+    """Start ``fogbench suite`` on ``cwd/scn`` with two workers, wait until ``ready(stderr so
+    far)`` (at most ``wait_s``), then ``after_s`` more, and signal it: SIGINT to the whole
+    process group (as Ctrl-C does), SIGTERM to the main process. Returns (exit status, stderr
+    before the signal, stderr after); fails the test if it does not end within ``timeout_s``."""
+    proc = subprocess.Popen([sys.executable, "-m", "fogbench.cli", "suite", "--scenarios", "scn",
+                             "--out", "rep", "--jobs", "2", "--no-recording"], cwd=cwd,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    t0 = time.monotonic()
+    seen = ""
+    while time.monotonic() - t0 < wait_s and not ready(seen):
+        line = proc.stderr.readline()
+        if not line:
+            break
+        seen += line
+    time.sleep(after_s)
+    if sig == signal.SIGINT:
+        os.killpg(proc.pid, signal.SIGINT)
+    else:
+        proc.send_signal(signal.SIGTERM)
+    try:
+        _, err = proc.communicate(timeout=timeout_s)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        pytest.fail(hung)
+    return proc.returncode, seen, err
+
+
 @pytest.mark.parametrize("sig,code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
 def test_interrupted_suite_exits_cleanly_and_leaves_no_temporary_folders(home, sig, code):
     """Ctrl-C or SIGTERM while two workers simulate: the main process ends the workers, says so
@@ -291,30 +320,12 @@ def test_interrupted_suite_exits_cleanly_and_leaves_no_temporary_folders(home, s
         'type = "hold"', 'type = "rate"\nrate_dps = 5.0')
     (home / "scn" / "tiny.toml").write_text(long)
     (home / "scn" / "tiny2.toml").write_text(long.replace('name = "tiny"', 'name = "tiny2"'))
-    proc = subprocess.Popen([sys.executable, "-m", "fogbench.cli", "suite", "--scenarios", "scn",
-                             "--out", "rep", "--jobs", "2", "--no-recording"], cwd=home,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)
-    # wait until both workers are simulating
-    t0 = time.monotonic()
-    seen = ""
-    while time.monotonic() - t0 < 60:
-        line = proc.stderr.readline()
-        seen += line
-        if seen.count("simulate") >= 2:
-            break
-    time.sleep(0.5)
-    if sig == signal.SIGINT:
-        os.killpg(proc.pid, signal.SIGINT)  # Ctrl-C reaches the whole foreground group
-    else:
-        proc.send_signal(signal.SIGTERM)
-    try:
-        _, err = proc.communicate(timeout=60)
-    except subprocess.TimeoutExpired:
-        os.killpg(proc.pid, signal.SIGKILL)
-        pytest.fail("the suite hung after the signal")
+    # signal once both workers are simulating
+    returncode, seen, err = _signal_suite(home, sig, lambda seen: seen.count("simulate") >= 2,
+                                          wait_s=60, after_s=0.5, timeout_s=60,
+                                          hung="the suite hung after the signal")
     err = seen + err
-    assert proc.returncode == code, err
+    assert returncode == code, err
     assert "Traceback" not in err and "KeyboardInterrupt" not in err
     assert _part_dirs(home) == []
 
@@ -362,29 +373,13 @@ def test_interrupt_stops_workers_in_the_middle_of_a_replicate(tmp_path, sig, cod
     workers on shutdown)."""
     (tmp_path / "scn").mkdir()
     (tmp_path / "scn" / "slow.toml").write_text(SLOW)
-    proc = subprocess.Popen([sys.executable, "-m", "fogbench.cli", "suite", "--scenarios", "scn",
-                             "--out", "rep", "--jobs", "2", "--no-recording"], cwd=tmp_path,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)
-    t0 = time.monotonic()
-    seen = ""
-    while time.monotonic() - t0 < 120 and "fit bp" not in seen:   # replicate 0, here: the
-        line = proc.stderr.readline()                               # others are in the pool
-        if not line:
-            break
-        seen += line
+    # replicate 0 fits here while the others are in the pool
+    returncode, seen, err = _signal_suite(tmp_path, sig, lambda seen: "fit bp" in seen,
+                                          wait_s=120, after_s=1.0, timeout_s=30,
+                                          hung="the suite waited for the replicates in flight "
+                                               "after the signal")
     assert "fit bp" in seen, seen
-    time.sleep(1.0)
-    if sig == signal.SIGINT:
-        os.killpg(proc.pid, signal.SIGINT)
-    else:
-        proc.send_signal(signal.SIGTERM)
-    try:
-        _, err = proc.communicate(timeout=30)
-    except subprocess.TimeoutExpired:
-        os.killpg(proc.pid, signal.SIGKILL)
-        pytest.fail("the suite waited for the replicates in flight after the signal")
-    assert proc.returncode == code, seen + err
+    assert returncode == code, seen + err
     assert ("interrupted" if sig == signal.SIGINT else "terminated (SIGTERM)") in err
     # no traceback from fogbench's code (under load, multiprocessing's own helper process has
     # been seen to print a BrokenPipeError as the pool is torn down: not ours to silence)

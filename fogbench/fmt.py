@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["KEY_METRICS", "fmt", "md_table", "decimation", "ci_text", "p_better_text"]
+__all__ = ["KEY_METRICS", "fmt", "md_table", "decimation", "ci_text", "p_better_text",
+           "metrics_table"]
 
 KEY_METRICS = ("std_dps", "rmse_dph", "drift_rms_dph", "bias_stability_100s_dph",
                "angle_error_final_deg", "coef_rms_error_dph", "arw_deg_rt_h",
@@ -60,3 +61,19 @@ def p_better_text(p: dict) -> str:
     if p.get("ci_low") is not None and p.get("ci_high") is not None:
         txt += f" [{max(0.0, p['ci_low']):.2f}, {min(1.0, p['ci_high']):.2f}]"
     return txt
+
+
+def metrics_table(by_method: dict, cell=None) -> str:
+    """The key metrics of every method on one scored run as a Markdown table: a column per
+    key metric any method has, a status column; a failed method's row says why.
+    ``cell(label, metric, value)`` formats a cell (default :func:`fmt`)."""
+    metrics = [m for m in KEY_METRICS
+               if any(isinstance(v, dict) and m in v for v in by_method.values())]
+    rows = []
+    for lab, m in by_method.items():
+        if m.get("status") == "failed":
+            rows.append([lab] + ["–"] * len(metrics) + [f"FAILED: {m.get('error', '')}"])
+            continue
+        rows.append([lab] + [cell(lab, x, m.get(x)) if cell else fmt(m.get(x), x)
+                             for x in metrics] + ["ok"])
+    return md_table(["method"] + metrics + ["status"], rows)

@@ -97,7 +97,7 @@ import numpy as np
 
 from fogcomp.units import DPH, DPS
 
-from .fmt import KEY_METRICS, decimation, fmt, md_table
+from .fmt import decimation, fmt, md_table, metrics_table
 
 __all__ = ["write_recording", "view", "blueprint_for", "ReplicatesError", "decimation", "psd_interval",
            "MAX_SERIES_POINTS", "MAX_POSE_POINTS", "TIMELINE", "REPLICATE_TIMELINE",
@@ -627,16 +627,9 @@ def _metrics_text(res, decim: dict, piece_decim: list[int]) -> str:
         prot = prots.get(it.protocol)
         flag = " (IN-SAMPLE)" if prot is not None and prot.in_sample else " (held out)"
         L += [f"## `{key}`{flag} / `{it.run}`", ""]
-        metrics = [m for m in KEY_METRICS
-                   if any(isinstance(v, dict) and m in v for v in it.metrics.values())]
-        rows = []
-        for lab, m in it.metrics.items():
-            if m.get("status") == "failed":
-                rows.append([lab] + ["–"] * len(metrics) + [f"FAILED: {m.get('error', '')}"])
-                failed.append((key, it.run, lab, m.get("error", "")))
-                continue
-            rows.append([lab] + [fmt(m.get(x), x) for x in metrics] + ["ok"])
-        L += [md_table(["method"] + metrics + ["status"], rows), ""]
+        failed += [(key, it.run, lab, m.get("error", "")) for lab, m in it.metrics.items()
+                   if m.get("status") == "failed"]
+        L += [metrics_table(it.metrics), ""]
     if failed:
         L += ["## Failed methods", "",
               "These have no `compensated` or `error` series in this recording:", ""]

@@ -21,7 +21,8 @@ from fogcomp import metrics as M  # noqa: E402
 from fogcomp.allan import oadev  # noqa: E402
 from fogcomp.units import DPH, DPS  # noqa: E402
 
-from .fmt import KEY_METRICS, ci_text, decimation, fmt, md_table, p_better_text  # noqa: E402
+from .fmt import (KEY_METRICS, ci_text, decimation, fmt, md_table,  # noqa: E402
+                  metrics_table, p_better_text)
 from .io import atomic_write_bytes, atomic_write_text, run_arrays, versions  # noqa: E402
 from .outdir import check_out_dir, new_part_dir, replace_dir  # noqa: E402
 from .runner import ScenarioResult, TERM_NAMES, thermal_segments, write_metrics  # noqa: E402
@@ -416,23 +417,11 @@ def render_report(res: ScenarioResult, fig_names: dict, decimation: dict) -> str
                  if prot.smooth_s else "")
               + (f" First {prot.skip_s:g} s of each run left out." if prot.skip_s else ""), ""]
         for run, by_method in pd["runs"].items():
-            metrics = [m for m in KEY_METRICS if any(
-                isinstance(v, dict) and m in v for v in by_method.values())]
-            header = ["method"] + metrics + ["status"]
-            rows = []
-            for lab, m in by_method.items():
-                if m.get("status") == "failed":
-                    rows.append([lab] + ["–"] * len(metrics) + [f"FAILED: {m['error']}"])
-                    continue
-                cells = []
-                for met in metrics:
-                    c = fmt(m.get(met), met)
-                    pv = _paper_value(plan, lab, met, run)
-                    if pv is not None:
-                        c += f" (ref: {fmt(pv.value, met)})"
-                    cells.append(c)
-                rows.append([lab] + cells + ["ok"])
-            L += [f"### {run}", "", md_table(header, rows), ""]
+            def cell(lab, met, v, _run=run):
+                pv = _paper_value(plan, lab, met, _run)
+                return fmt(v, met) + (f" (ref: {fmt(pv.value, met)})" if pv is not None else "")
+
+            L += [f"### {run}", "", metrics_table(by_method, cell), ""]
             refs = sorted({pv.source for pv in plan.paper if pv.run in (None, run)
                            and pv.segment is None})
             if refs:

@@ -32,7 +32,7 @@ import numpy as np
 
 from . import stats as S
 from .io import atomic_write_text, json_ready, versions
-from .outdir import MARKER, OutDirError, _alive
+from .outdir import MARKER, OutDirError, _alive, _marker
 
 __all__ = ["MonteCarloError", "replicate_task", "replicate_doc", "aggregate", "WorkDir",
            "scenario_digest", "TIMING_METRICS"]
@@ -123,7 +123,7 @@ class WorkDir:
         nothing is deleted: replicates a previous run left are kept unless the user resumes
         them or removes the folder; a folder another live process is filling is refused.
         """
-        found = _marker_any(self.path)
+        found = _marker(self.path, kinds=("replicates",))
         if self.path.exists() and found is None:
             raise OutDirError(f"{self.path} exists and is not a fogbench replicates folder; it "
                               "was left untouched. Move it away or give another --out")
@@ -187,11 +187,6 @@ class WorkDir:
         """After a failure before any replicate was stored: leave nothing behind."""
         if self.path.is_dir() and not any(self.path.glob("r*.json")):
             shutil.rmtree(self.path, ignore_errors=True)
-
-
-def _marker_any(path: Path) -> dict | None:
-    doc = _read_json(path / MARKER) if path.is_dir() else None
-    return doc if isinstance(doc, dict) and doc.get("kind") == "replicates" else None
 
 
 def _read_json(path: Path):

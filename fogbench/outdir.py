@@ -42,12 +42,13 @@ def install_sigterm() -> None:
     signal.signal(signal.SIGTERM, _raise)
 
 
-def _marker(path: Path) -> dict | None:
+def _marker(path: Path, kinds=KINDS) -> dict | None:
+    """The marker of a folder fogbench wrote (one of ``kinds``), or None."""
     try:
-        doc = json.loads((path / MARKER).read_text())
+        doc = json.loads((Path(path) / MARKER).read_text())
     except (OSError, ValueError):
         return None
-    return doc if isinstance(doc, dict) and doc.get("kind") in KINDS else None
+    return doc if isinstance(doc, dict) and doc.get("kind") in kinds else None
 
 
 def is_ours(path: Path, kind: str) -> bool:

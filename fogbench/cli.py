@@ -152,7 +152,7 @@ def _cmd_run(args) -> int:
 
 
 def _cmd_check(args) -> int:
-    from .scenario import RUNNER_SECTIONS, ScenarioError, load_plan, load_scenario
+    from .scenario import RUNNER_SECTIONS, ScenarioError, claim_name, load_plan, load_scenario
 
     bad = 0
     paths = []
@@ -171,17 +171,11 @@ def _cmd_check(args) -> int:
         try:
             sc = load_scenario(path, extra_sections=RUNNER_SECTIONS)
             plan = load_plan(sc)
+            claim_name(first_file, sc, path)  # as fogbench suite refuses two with one name
         except ScenarioError as exc:
             print(f"fogbench: error: {exc}", file=sys.stderr)
             bad += 1
             continue
-        if sc.name in first_file:  # as fogbench suite refuses it: each names a report folder
-            print(f"fogbench: error: {path}: [scenario] key 'name': {sc.name!r} is also the "
-                  f"name of {first_file[sc.name]}; scenario names must be unique in a suite "
-                  "(each names its report folder)", file=sys.stderr)
-            bad += 1
-            continue
-        first_file[sc.name] = path
         n = sum(r.duration for r in sc.runs) * sc.fs
         print(f"{path}: ok: scenario {sc.name!r}, {len(sc.runs)} run(s), {n:.0f} samples, "
               f"{len(plan.protocols)} protocol(s), {len(plan.methods)} method(s), "

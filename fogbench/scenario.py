@@ -27,7 +27,7 @@ from sim.thermal import (SENSOR_LOCATIONS, TempSensor, ThermalHold, ThermalModel
 
 __all__ = ["ScenarioError", "Scenario", "Run", "load_scenario", "load_presets", "PRESETS_PATH",
            "Selection", "Protocol", "MethodSpec", "Bound", "PaperValue", "Claim", "Plan",
-           "load_plan", "select_indices", "expand"]
+           "load_plan", "select_indices", "expand", "claim_name"]
 
 # Top-level tables of the compensation part (validated by load_plan below); others are refused.
 RUNNER_SECTIONS = ("compensation", "protocols", "methods", "bounds", "paper", "claims",
@@ -912,6 +912,16 @@ def _sweep_members(t: _Table, mname: str, params: dict, sweep: dict) -> list[tup
         return all(v == SWEEP_DEFAULT or v == paper[k] for k, v in zip(keys, c))
 
     return [(dict(zip(keys, c)), is_paper(c)) for c in combos]
+
+
+def claim_name(first_file: dict, sc: Scenario, path) -> None:
+    """Record that ``path`` holds scenario ``sc``; refuse a name another file in the same set
+    already has (each scenario names its report folder)."""
+    if sc.name in first_file:
+        raise ScenarioError(f"{path}: [scenario] key 'name': {sc.name!r} is also the name of "
+                            f"{first_file[sc.name]}; scenario names must be unique in a suite "
+                            "(each names its report folder)")
+    first_file[sc.name] = path
 
 
 def expand(prot: Protocol, sc: Scenario) -> list[tuple[list[Selection], list[Selection]]]:

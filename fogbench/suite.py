@@ -16,7 +16,7 @@ from .montecarlo import MonteCarloError, ScenarioMC
 from .outdir import OutDirError, check_out_dir
 from .progress import Progress
 from .report import write_run_dir
-from .scenario import RUNNER_SECTIONS, ScenarioError, load_plan, load_scenario
+from .scenario import RUNNER_SECTIONS, ScenarioError, claim_name, load_plan, load_scenario
 
 __all__ = ["run_suite", "check_bounds", "summary_markdown"]
 
@@ -317,11 +317,7 @@ def run_suite(scenario_dir: Path, out: Path, check: bool = False, jobs: int | No
                             "error": str(exc)})
             print(f"fogbench: error: {exc}", file=sys.stderr)
             continue
-        if sc.name in first_file:
-            raise ScenarioError(f"{p}: [scenario] key 'name': {sc.name!r} is also the name of "
-                                f"{first_file[sc.name]}; scenario names must be unique in a "
-                                "suite (each names its report folder)")
-        first_file[sc.name] = p
+        claim_name(first_file, sc, p)
         if only_ci and not plan.ci:
             continue
         if names and sc.name not in names:

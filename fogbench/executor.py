@@ -23,7 +23,10 @@ import multiprocessing
 import os
 import re
 import signal
+import socket
+import struct
 import threading
+import time
 from typing import Any, Callable, Iterable, Iterator, Mapping
 
 import numpy as np
@@ -31,7 +34,10 @@ import numpy as np
 __all__ = [
     "EngineError",
     "SchedulerUnreachableError",
+    "NotASchedulerError",
     "SerialExecutor",
+    "check_engine",
+    "probe_scheduler",
     "make_executor",
     "engine_label",
     "render_job_script",
@@ -68,6 +74,10 @@ class EngineError(ValueError):
 
 class SchedulerUnreachableError(EngineError):
     """No Dask scheduler answered at the address given."""
+
+
+class NotASchedulerError(SchedulerUnreachableError):
+    """Something answered at the address, but not a Dask scheduler."""
 
 
 # ---------------------------------------------------------------------------------------------
@@ -155,10 +165,28 @@ class SerialExecutor(cf.Executor):
             self._shutdown = True
 
 
-def _ignore_sigint() -> None:
+#: How often a local worker checks that the process that started the pool is alive, s.
+PARENT_POLL_S = 0.5
+
+
+def _worker_init(parent_pid: int) -> None:
     """Worker initializer: Ctrl-C is the parent's to handle (it stops the workers), so workers
-    print no KeyboardInterrupt traceback of their own."""
+    print no KeyboardInterrupt traceback of their own; and a worker ends when the process that
+    started the pool has gone, even by kill -9 (no ``finally`` of the parent runs then, and an
+    idle worker would wait on its queue for ever, a busy one finish its replicate)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+    def watch():
+        while True:
+            time.sleep(PARENT_POLL_S)
+            try:
+                os.kill(parent_pid, 0)
+            except ProcessLookupError:
+                os._exit(1)
+            except PermissionError:  # pragma: no cover - the pid was reused by another user
+                os._exit(1)
+
+    threading.Thread(target=watch, name="fogbench-parent-watch", daemon=True).start()
 
 
 def _default_jobs() -> int:
@@ -327,6 +355,156 @@ def _stop_pool(pool: cf.ProcessPoolExecutor) -> None:
         proc.join(timeout=5)
 
 
+#: Largest first message a Dask peer may send in the probe (its handshake is about 100 bytes):
+#: a peer that announces more is not a Dask scheduler, and nothing that large is allocated.
+_MAX_HANDSHAKE_BYTES = 1 << 20
+
+
+def _recv_exact(sock: socket.socket, n: int, deadline: float, address: str) -> bytes:
+    buf = bytearray()
+    while len(buf) < n:
+        left = deadline - time.monotonic()
+        if left <= 0:
+            raise socket.timeout()
+        sock.settimeout(left)
+        chunk = sock.recv(n - len(buf))
+        if not chunk:
+            raise NotASchedulerError(
+                f"scheduler {address}: the peer closed the connection after {len(buf)} byte(s) "
+                "without a Dask handshake; it is not a Dask scheduler")
+        buf += chunk
+    return bytes(buf)
+
+
+def _raw_handshake(host: str, port: int, address: str, deadline: float) -> dict:
+    """Read the handshake a Dask server sends on every new TCP connection, with bounded time
+    and memory: 8 bytes of total length, then the frames' prelude (their count and lengths) and
+    the frames, as ``distributed.comm.tcp`` writes them; decoded by ``distributed.protocol``
+    only once the sizes are plausible. A peer that sends nothing (an HTTP server waits for a
+    request) runs into the deadline; one that sends something else is refused at once."""
+    from distributed.protocol.core import loads
+
+    with socket.create_connection((host, port), timeout=max(deadline - time.monotonic(), 0.01)) \
+            as sock:
+        head = _recv_exact(sock, 8, deadline, address)
+        (total,) = struct.unpack("<Q", head)
+        if not 16 <= total <= _MAX_HANDSHAKE_BYTES:
+            raise NotASchedulerError(
+                f"scheduler {address}: the peer answered {head!r}, not a Dask handshake; it is "
+                "not a Dask scheduler (is this the address of another service?)")
+        body = _recv_exact(sock, total, deadline, address)
+    (nframes,) = struct.unpack_from("<Q", body)
+    if not 1 <= nframes <= 64 or 8 + 8 * nframes > total:
+        raise NotASchedulerError(f"scheduler {address}: the peer's first message is not a Dask "
+                                 "handshake; it is not a Dask scheduler")
+    lengths = struct.unpack_from(f"<{nframes}Q", body, 8)
+    frames, pos = [], 8 + 8 * nframes
+    for nb in lengths:
+        if pos + nb > total:
+            raise NotASchedulerError(f"scheduler {address}: the peer's first message is not a "
+                                     "Dask handshake; it is not a Dask scheduler")
+        frames.append(body[pos:pos + nb])
+        pos += nb
+    try:
+        msg = loads(frames, deserialize=False)
+    except Exception:  # noqa: BLE001 - whatever the peer sent, it is not a Dask handshake
+        msg = None
+    if not isinstance(msg, dict) or "compression" not in msg:
+        raise NotASchedulerError(f"scheduler {address}: the peer's first message is not a Dask "
+                                 "handshake; it is not a Dask scheduler")
+    return msg
+
+
+async def _identity(address: str, timeout_s: float) -> dict:
+    """Dask's own ``identity`` request (every Dask server answers it with its type)."""
+    from distributed.comm import connect
+
+    comm = await connect(address, timeout=timeout_s)
+    try:
+        await comm.write({"op": "identity", "reply": True})
+        return await comm.read()
+    finally:
+        comm.abort()
+
+
+def probe_scheduler(scheduler: str, timeout_s: float = DEFAULT_CONNECT_TIMEOUT_S) -> str:
+    """Check that a Dask scheduler answers at ``scheduler`` within ``timeout_s``; return the
+    normalised address.
+
+    A bounded handshake of our own before ``distributed.Client`` is made: the client's own
+    connection does not bound the handshake's time (against an HTTP server it waits for ever)
+    and trusts the peer's length prefix (a non-Dask peer made it try to allocate exabytes). On
+    ``tcp://``: a TCP connection, the first message read and checked as a Dask handshake with
+    bounded size (:func:`_raw_handshake`), then Dask's ``identity`` request, whose answer must
+    name a ``Scheduler`` (a worker's address is refused). On other protocols (tls, ws, ucx),
+    the ``identity`` request alone, under the same deadline.
+
+    Raises
+    ------
+    EngineError
+        A malformed address, or Dask not installed.
+    SchedulerUnreachableError
+        Nothing answered within ``timeout_s`` (the message names the address).
+    NotASchedulerError
+        Something answered, but not a Dask scheduler.
+    """
+    import asyncio
+
+    address = _check_address(scheduler)
+    _import_dask(f"scheduler = {address!r}")
+    m = _ADDRESS.match(address)
+    host, port = m.group("host").strip("[]"), int(m.group("port"))
+    deadline = time.monotonic() + timeout_s
+    try:
+        if m.group("scheme") == "tcp":
+            _raw_handshake(host, port, address, deadline)
+        left = max(deadline - time.monotonic(), 0.5)
+        ident = asyncio.run(asyncio.wait_for(_identity(address, left), left))
+    except NotASchedulerError:
+        raise
+    except (OSError, TimeoutError, asyncio.TimeoutError, socket.timeout) as exc:
+        why = ("connection accepted, but no Dask handshake" if isinstance(
+            exc, (TimeoutError, asyncio.TimeoutError, socket.timeout)) else
+            (exc.strerror or str(exc) or type(exc).__name__))
+        raise SchedulerUnreachableError(
+            f"scheduler {address}: no Dask scheduler answered within {timeout_s:g} s ({why}); "
+            "check the address and that the scheduler is running") from None
+    except Exception as exc:  # noqa: BLE001 - a peer speaking something else
+        raise NotASchedulerError(f"scheduler {address}: the peer did not answer as a Dask "
+                                 f"scheduler ({type(exc).__name__}: {exc})") from None
+    kind = ident.get("type") if isinstance(ident, dict) else None
+    if kind != "Scheduler":
+        raise NotASchedulerError(f"scheduler {address}: a Dask {kind or 'peer'} answered, not a "
+                                 "scheduler; give the scheduler's address (its log shows "
+                                 "'Scheduler at: tcp://...')")
+    return address
+
+
+def check_engine(jobs: int | None = None, scheduler: str | None = None,
+                 cluster: str | None = None, cluster_options: Mapping[str, Any] | None = None,
+                 *, connect_timeout_s: float = DEFAULT_CONNECT_TIMEOUT_S) -> None:
+    """Every engine option checked before any work, whether or not a pool will be needed (a
+    run of one replicate never starts one): the flags' combination, ``jobs``, the cluster
+    options, and a scheduler by :func:`probe_scheduler`. Raises :class:`EngineError`."""
+    if scheduler is not None and cluster is not None:
+        raise EngineError("give either scheduler (a running Dask cluster) or cluster "
+                          "(start one through dask-jobqueue), not both")
+    if cluster_options is not None and cluster is None:
+        raise EngineError("cluster options given without cluster = 'slurm' or 'pbs'")
+    if isinstance(connect_timeout_s, bool) or not isinstance(connect_timeout_s, (int, float)) \
+            or not 0 < connect_timeout_s <= 600:
+        raise EngineError(f"connect_timeout_s: expected a number of seconds in (0, 600], got "
+                          f"{connect_timeout_s!r}")
+    if scheduler is not None:
+        probe_scheduler(scheduler, connect_timeout_s)
+    elif cluster is not None:
+        _check_cluster(cluster, cluster_options)
+        _import_dask(f"cluster = {cluster!r}")
+        _jobqueue_job_class(cluster)
+    else:
+        _check_jobs(jobs)
+
+
 @contextlib.contextmanager
 def make_executor(jobs: int | None = None, scheduler: str | None = None,
                   cluster: str | None = None, cluster_options: Mapping[str, Any] | None = None,
@@ -369,18 +547,12 @@ def make_executor(jobs: int | None = None, scheduler: str | None = None,
     ``forkserver`` method (``spawn`` where it is missing): forking a parent that already runs
     threads (MuJoCo's rollout, BLAS) can deadlock.
     """
-    if scheduler is not None and cluster is not None:
-        raise EngineError("give either scheduler (a running Dask cluster) or cluster "
-                          "(start one through dask-jobqueue), not both")
-    if cluster_options is not None and cluster is None:
-        raise EngineError("cluster options given without cluster = 'slurm' or 'pbs'")
-    if isinstance(connect_timeout_s, bool) or not isinstance(connect_timeout_s, (int, float)) \
-            or not 0 < connect_timeout_s <= 600:
-        raise EngineError(f"connect_timeout_s: expected a number of seconds in (0, 600], got "
-                          f"{connect_timeout_s!r}")
+    check_engine(jobs, scheduler, cluster, cluster_options,
+                 connect_timeout_s=connect_timeout_s)
     if scheduler is not None:
+        import distributed
+
         address = _check_address(scheduler)
-        distributed = _import_dask(f"scheduler = {address!r}")
         try:
             client = distributed.Client(address, timeout=connect_timeout_s,
                                         set_as_default=False)
@@ -394,10 +566,10 @@ def make_executor(jobs: int | None = None, scheduler: str | None = None,
             client.close()
         return
     if cluster is not None:
-        opts = _check_cluster(cluster, cluster_options)
-        distributed = _import_dask(f"cluster = {cluster!r}")
-        _jobqueue_job_class(cluster)
         import dask_jobqueue
+        import distributed
+
+        opts = _check_cluster(cluster, cluster_options)
 
         cls = dask_jobqueue.SLURMCluster if cluster == "slurm" else dask_jobqueue.PBSCluster
         batch = cls(**_jobqueue_kwargs(opts))
@@ -421,7 +593,8 @@ def make_executor(jobs: int | None = None, scheduler: str | None = None,
         return
     methods = multiprocessing.get_all_start_methods()
     ctx = multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
-    pool = cf.ProcessPoolExecutor(max_workers=n, mp_context=ctx, initializer=_ignore_sigint)
+    pool = cf.ProcessPoolExecutor(max_workers=n, mp_context=ctx, initializer=_worker_init,
+                                  initargs=(os.getpid(),))
     try:
         yield pool
     except BaseException:

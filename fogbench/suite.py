@@ -9,7 +9,7 @@ import time
 import traceback
 from pathlib import Path
 
-from .executor import SerialExecutor, engine_label, make_executor
+from .executor import SerialExecutor, check_engine, engine_label, make_executor
 from .fmt import ci_text, fmt, md_table, p_better_text
 from .io import atomic_write_text
 from .montecarlo import MonteCarloError, ScenarioMC
@@ -340,6 +340,7 @@ def run_suite(scenario_dir: Path, out: Path, check: bool = False, jobs: int | No
     readme = _summary_path(out, partial=bool(only_ci or names))
     for name in plans:
         check_out_dir(Path(out) / name, "run", flag=f"--out {out}: folder {name}")
+    check_engine(jobs, scheduler, cluster, cluster_options)  # even when no pool is needed
     t0 = time.monotonic()
     mcs: dict = {}
     for p in chosen:
@@ -378,6 +379,8 @@ def run_suite(scenario_dir: Path, out: Path, check: bool = False, jobs: int | No
         for m in mcs.values():
             m.work.remove_if_empty()
         raise
+    for m in mcs.values():  # a failed scenario's empty work folder goes; its claim is released
+        m.work.remove_if_empty()
     violations = []
     for r in results:
         if r["ok"]:
@@ -394,6 +397,12 @@ def run_suite(scenario_dir: Path, out: Path, check: bool = False, jobs: int | No
           f"{time.monotonic() - t0:.1f} s; summary in {readme}")
     for v in violations:
         print(f"fogbench: bound: {v}", file=sys.stderr)
+    kept = {n: len(list(m.work.path.glob("r*.json"))) for n, m in mcs.items()
+            if m.work.path.is_dir()}
+    kept = {n: k for n, k in kept.items() if k}
+    if kept:  # a scenario that failed after its replicates were stored: the last line says so
+        print(f"fogbench: replicates kept for {', '.join(f'{n} ({k})' for n, k in kept.items())}"
+              "; run the suite again with --resume to go on", file=sys.stderr)
     if check and violations:
         return 1
     return 0 if all(r["ok"] and not r.get("replicate_failures") for r in results) else 1

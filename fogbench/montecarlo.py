@@ -26,13 +26,14 @@ import os
 import shutil
 import threading
 import time
+import weakref
 from pathlib import Path
 
 import numpy as np
 
 from . import stats as S
 from .io import atomic_write_text, json_ready, versions
-from .outdir import MARKER, OutDirError, _alive, _marker
+from .outdir import MARKER, OutDirError, _marker
 
 __all__ = ["MonteCarloError", "replicate_task", "replicate_doc", "aggregate", "WorkDir",
            "scenario_digest", "TIMING_METRICS"]
@@ -96,7 +97,13 @@ _clean = json_ready
 # The work folder: one file per completed replicate, resumable
 class WorkDir:
     """``.<run dir name>.replicates`` beside the run directory: ``r00000.json``, ... and the
-    marker naming the scenario (its text's SHA-256), the fogbench version, K and the methods."""
+    marker naming the scenario (its text's SHA-256), the fogbench version, K and the methods.
+
+    The folder is claimed when it is opened, before any work: an exclusive ``flock`` on the
+    folder itself, held until this process ends (the kernel releases it even after kill -9),
+    so a second run into the same place is refused at once. Every replicate file carries a
+    SHA-256 of its content and of the scenario it belongs to (``sha256``): a file edited,
+    relabelled or copied from another scenario's run is refused by ``--resume``, naming it."""
 
     def __init__(self, out: Path, sc, method_seeds: int, methods: list[str] | None):
         self.out = Path(out)
@@ -105,6 +112,8 @@ class WorkDir:
                          "scenario_file": str(sc.path), "scenario_sha256": scenario_digest(sc.text),
                          "fogbench": versions().get("fogbench"), "method_seeds": method_seeds,
                          "methods": sorted(methods) if methods else None}
+        self._lock_fd: int | None = None
+        self._made: list[Path] = []
 
     def _mismatch(self, found: dict, where: Path) -> str | None:
         for key, what in (("scenario_sha256", "another scenario file (or an edited one)"),
@@ -116,20 +125,78 @@ class WorkDir:
                         "without --resume to start afresh")
         return None
 
-    def open(self, resume: bool) -> dict[int, dict]:
-        """Check the folder; return the completed replicates (empty unless ``resume``).
+    def _claim(self) -> bool:
+        """Take the folder for this process (created if missing); True when it was created.
+        Refused when another live process holds it."""
+        created = False
+        q = self.path.parent
+        while not q.exists() and q != q.parent:
+            self._made.append(q)   # folders made for it, removed with it if left empty
+            q = q.parent
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            os.mkdir(self.path)
+            created = True
+        except FileExistsError:
+            pass
+        except OSError as exc:
+            raise OutDirError(f"{self.path}: cannot create it ({exc.strerror})") from None
+        try:
+            fd = os.open(self.path, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
+        except OSError as exc:
+            raise OutDirError(f"{self.path}: cannot open it ({exc.strerror})") from None
+        try:
+            import fcntl
+        except ImportError:  # pragma: no cover - not POSIX: the marker's pid is the only claim
+            self._lock_fd = fd
+            self._finalizer = weakref.finalize(self, os.close, fd)
+            return created
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            os.close(fd)
+            found = _marker(self.path, kinds=("replicates",)) or {}
+            raise MonteCarloError(f"{self.path} is being filled by another fogbench process"
+                                  + (f" (pid {found['pid']})" if found.get("pid") else "")
+                                  + "; wait for it or give another --out") from None
+        self._lock_fd = fd
+        # the claim goes with this object too (a dropped WorkDir releases its folder)
+        self._finalizer = weakref.finalize(self, os.close, fd)
+        return created
 
-        Nothing is created here (the folder appears with the first replicate written), and
-        nothing is deleted: replicates a previous run left are kept unless the user resumes
-        them or removes the folder; a folder another live process is filling is refused.
+    def release(self) -> None:
+        if self._lock_fd is not None:
+            self._finalizer()  # closes the descriptor, which releases the flock
+            self._lock_fd = None
+
+    def open(self, resume: bool) -> dict[int, dict]:
+        """Claim the folder and check it; return the completed replicates (empty unless
+        ``resume``).
+
+        Nothing is deleted: replicates a previous run left are kept unless the user resumes
+        them or removes the folder; a folder another live process is filling is refused; a
+        folder that is not ours is refused untouched.
         """
         found = _marker(self.path, kinds=("replicates",))
-        if self.path.exists() and found is None:
+        if (self.path.exists() or self.path.is_symlink()) and found is None and not (
+                self.path.is_dir() and not self.path.is_symlink()
+                and not os.listdir(self.path)):
             raise OutDirError(f"{self.path} exists and is not a fogbench replicates folder; it "
                               "was left untouched. Move it away or give another --out")
-        if found is not None and _alive(found.get("pid")):
-            raise MonteCarloError(f"{self.path} is being filled by another fogbench process "
-                                  f"(pid {found.get('pid')}); wait for it or give another --out")
+        created = self._claim()
+        try:
+            done = self._open(resume)
+            self._write_marker()
+        except BaseException:
+            if created:
+                self.remove()
+            else:
+                self.release()
+            raise
+        return done
+
+    def _open(self, resume: bool) -> dict[int, dict]:
+        found = _marker(self.path, kinds=("replicates",))
         done: dict[int, dict] = {}
         if not resume:
             left = sorted(self.path.glob("r*.json")) if found is not None else []
@@ -140,10 +207,12 @@ class WorkDir:
                     "folder to start afresh")
             return done
         prev = self.out / "replicates"
-        if found is not None:
+        if found is not None and any(self.path.glob("r*.json")):
             src, ident = self.path, found
         elif (self.out / MARKER).exists() and prev.is_dir():
             src, ident = prev, _read_json(prev / "identity.json")
+        elif found is not None:
+            src, ident = self.path, found
         else:
             raise MonteCarloError(f"--resume: nothing to resume for {self.out} (neither "
                                   f"{self.path} nor {prev} holds replicates)")
@@ -151,23 +220,45 @@ class WorkDir:
         if msg:
             raise MonteCarloError(msg)
         for f in sorted(src.glob("r*.json")):
-            doc = _read_json(f)
-            if isinstance(doc, dict) and isinstance(doc.get("replicate"), int):
-                done[doc["replicate"]] = doc
+            doc = self._checked(f)
+            done[doc["replicate"]] = doc
         if src != self.path:
             for doc in done.values():
                 self.write(doc)
         return done
 
-    def _create(self) -> None:
-        self.path.mkdir(parents=True, exist_ok=True)
+    def _checked(self, f: Path) -> dict:
+        """A stored replicate, refused (naming the file) unless its checksum, its scenario and
+        its file name agree with its content."""
+        doc = _read_json(f)
+        why = None
+        if not isinstance(doc, dict):
+            why = "not a replicate file (not a JSON object)"
+        elif doc.get("sha256") != _doc_sha256(doc):
+            why = ("its content does not match its checksum (key 'sha256'): it was edited or "
+                   "damaged" if "sha256" in doc else "it has no checksum (key 'sha256')")
+        elif doc.get("scenario_sha256") != self.identity["scenario_sha256"]:
+            why = "it belongs to another scenario file (key 'scenario_sha256')"
+        elif not isinstance(doc.get("replicate"), int) or \
+                f.name != f"r{doc['replicate']:05d}.json":
+            why = f"it holds replicate {doc.get('replicate')!r}, not the one its name says"
+        if why:
+            raise MonteCarloError(f"--resume: {f}: {why}; refused. Remove the file to compute "
+                                  "that replicate again, or run without --resume")
+        return doc
+
+    def _write_marker(self) -> None:
         atomic_write_text(self.path / MARKER, json.dumps({**self.identity, "pid": os.getpid()},
                                                          indent=2))
 
     def write(self, doc: dict) -> None:
         if not (self.path / MARKER).exists():
-            self._create()
-        atomic_write_text(self.path / f"r{doc['replicate']:05d}.json", json.dumps(_clean(doc)))
+            self.path.mkdir(parents=True, exist_ok=True)
+            self._write_marker()
+        body = {k: v for k, v in _clean(doc).items() if k != "sha256"}
+        body["scenario_sha256"] = self.identity["scenario_sha256"]
+        body["sha256"] = _doc_sha256(body)
+        atomic_write_text(self.path / f"r{doc['replicate']:05d}.json", json.dumps(body))
 
     def copy_into(self, run_tmp: Path, keep: list[int]) -> None:
         """Copy the replicates ``keep`` into the new run directory; the work folder stays until
@@ -182,11 +273,27 @@ class WorkDir:
 
     def remove(self) -> None:
         shutil.rmtree(self.path, ignore_errors=True)
+        self.release()
+        for d in self._made:  # deepest first; only if nothing else was put there
+            try:
+                d.rmdir()
+            except OSError:
+                break
+        self._made = []
 
     def remove_if_empty(self) -> None:
         """After a failure before any replicate was stored: leave nothing behind."""
         if self.path.is_dir() and not any(self.path.glob("r*.json")):
-            shutil.rmtree(self.path, ignore_errors=True)
+            self.remove()
+        else:
+            self.release()
+
+
+def _doc_sha256(doc: dict) -> str:
+    """SHA-256 of a replicate file's content without its ``sha256`` key (canonical JSON)."""
+    body = {k: v for k, v in doc.items() if k != "sha256"}
+    return hashlib.sha256(json.dumps(body, sort_keys=True, separators=(",", ":"))
+                          .encode()).hexdigest()
 
 
 def _read_json(path: Path):
@@ -483,7 +590,11 @@ class ScenarioMC:
         self.seed = scenario_seed(self.sc, self.plan)
         self.work = WorkDir(out, self.sc, self.K, methods)
         self.digest = scenario_digest(Path(self.path).read_bytes().decode("utf-8", "replace"))
-        self.done = self.work.open(resume)
+        done = self.work.open(resume)
+        # a resumed folder may hold more replicates than asked for now: the first R are used,
+        # the others are left out of this run (and say so)
+        self.dropped = sorted(r for r in done if r >= self.R)
+        self.done = {r: d for r, d in done.items() if r < self.R}
         self.resumed = sorted(self.done)
         self.todo = [r for r in range(1, self.R) if r not in self.done]
         self.futures: dict = {}
@@ -603,7 +714,8 @@ def _digest_doc(doc: dict) -> str:
     def strip(v):
         if isinstance(v, dict):
             return {k: strip(x) for k, x in v.items()
-                    if k not in TIMING_METRICS and k != "wall_s"}
+                    if k not in TIMING_METRICS and k not in ("wall_s", "sha256",
+                                                             "scenario_sha256")}
         if isinstance(v, list):
             return [strip(x) for x in v]
         return v

@@ -132,14 +132,20 @@ def test_resume_skips_completed_replicates_and_gives_the_same_aggregate(scn, tmp
     first = ScenarioMC(scn, out)
     first.run_first()
     first.work.write(replicate_task((str(scn), _digest(scn), 2, 1, None, {})))
+    # while it lives, its folder is its own: a second run into the same place is refused
+    with pytest.raises(MonteCarloError, match="being filled by another fogbench process"):
+        ScenarioMC(scn, out, resume=True)
+    first.work.release()  # the process ends (the kernel releases its claim, even on kill -9)
     again = ScenarioMC(scn, out, resume=True)
     assert again.todo == [1, 3] and again.resumed == [0, 2]
+    again.work.release()
     # without --resume the kept replicates are neither used nor deleted: refused, naming them
     with pytest.raises(MonteCarloError, match="2 replicate.*--resume"):
         ScenarioMC(scn, out)
     assert len(list(first.work.path.glob("r*.json"))) == 2
-    _, mc = run_mc(scn, out, make_executor(jobs=1), resume=True)
+    resumed, mc = run_mc(scn, out, make_executor(jobs=1), resume=True)
     assert mc["digest"] == full["digest"]
+    resumed.work.release()
     # an edited scenario is refused, naming the mismatch
     scn.write_text(scn.read_text().replace("seed = 12", "seed = 13"))
     with pytest.raises(MonteCarloError, match="another scenario file"):

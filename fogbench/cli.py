@@ -19,7 +19,7 @@ def _cmd_simulate(args) -> int:
     from sim.rig import simulate_run
 
     from .io import versions, write_manifest, write_run
-    from .outdir import check_out_dir, new_part_dir, replace_dir
+    from .outdir import check_out_dir, discard_part, new_part_dir, replace_dir
     from .progress import Progress
     from .scenario import RUNNER_SECTIONS, load_plan, load_scenario
 
@@ -48,23 +48,25 @@ def _cmd_simulate(args) -> int:
         write_manifest(tmp, scenario, names)
         replace_dir(tmp, out, "simulation")
     except BaseException:
-        import shutil
-
-        shutil.rmtree(tmp, ignore_errors=True)
+        discard_part(tmp)
         raise
     print(f"wrote {len(names)} run(s) of {scenario.name} to {out}")
     return 0
 
 
-def _engine(args):
-    """The executor the flags ask for (``fogbench.executor``), checked before any work."""
-    from .executor import make_executor
-
+def _engine_options(args) -> dict:
     opts = None
     if getattr(args, "cluster_config", None):
         opts = _cluster_options(args.cluster_config)
-    return make_executor(jobs=args.jobs, scheduler=args.scheduler, cluster=args.cluster,
-                         cluster_options=opts)
+    return dict(jobs=args.jobs, scheduler=args.scheduler, cluster=args.cluster,
+                cluster_options=opts)
+
+
+def _engine(args):
+    """The executor the flags ask for (``fogbench.executor``)."""
+    from .executor import make_executor
+
+    return make_executor(**_engine_options(args))
 
 
 def _engine_label(args) -> str:
@@ -112,10 +114,17 @@ def _cmd_run(args) -> int:
                              f"methods: {[m.label for m in plan.methods]}")
     name = sc.name
     out = check_out_dir(args.out if args.out is not None else Path("reports") / name, "run")
+    from .executor import check_engine
+
+    check_engine(**_engine_options(args))  # whatever the replicate count: a bad flag is an error
     say = (lambda msg: None) if args.quiet else (
         lambda msg: print(f"[{name}] {msg}", file=sys.stderr, flush=True))
     mc = ScenarioMC(args.scenario, out, replicates=args.replicates,
                     method_seeds=args.method_seeds, methods=args.method, resume=args.resume)
+    if mc.dropped:
+        print(f"fogbench: warning: --resume: {mc.work.path} holds {len(mc.dropped)} "
+              f"replicate(s) beyond the {mc.R} asked for (r{mc.dropped[0]}..); the first "
+              f"{mc.R} are used, the others are not kept", file=sys.stderr)
     engine = _engine(args) if mc.todo else contextlib.nullcontext(SerialExecutor())
     try:
         with engine as ex, Progress(mc.R - len(mc.resumed), f"{name}: replicates",
@@ -130,15 +139,19 @@ def _cmd_run(args) -> int:
                 mc.run_first(say)
                 bar.advance()
             mc.wait()
-    except BaseException:
-        if mc.done:
-            print(f"fogbench: {len(mc.done)} replicate(s) of {name} are kept in {mc.work.path}; "
-                  "run again with --resume to go on", file=sys.stderr)
+        doc = mc.finish(_engine_label(args) if mc.todo else "this process")
+        write_run_dir(mc.res0, out, recording=not args.no_recording,
+                      montecarlo=doc if mc.R > 1 else None, work=mc.work)
+    except BaseException as exc:
         mc.work.remove_if_empty()
+        if mc.work.path.is_dir() and mc.done:
+            kept = (f"{len(mc.done)} replicate(s) of {name} are kept in {mc.work.path}; run "
+                    "again with --resume to go on")
+            if isinstance(exc, Exception):
+                exc.add_note(kept)  # printed after the error line: the last line says it
+            else:
+                print(f"fogbench: {kept}", file=sys.stderr)
         raise
-    doc = mc.finish(_engine_label(args) if mc.todo else "this process")
-    write_run_dir(mc.res0, out, recording=not args.no_recording,
-                  montecarlo=doc if mc.R > 1 else None, work=mc.work)
     if mc.failures:
         print(f"fogbench: {len(mc.failures)} of {mc.R} replicates of {name} failed as a whole "
               f"(first: r{mc.failures[0]['replicate']}: {mc.failures[0]['error']}); the report "
@@ -317,33 +330,59 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def main(argv=None) -> int:
-    from .outdir import Terminated, install_sigterm
-    from .scenario import ScenarioError
+_INTERRUPTED = "fogbench: interrupted; files already complete are kept, none is half-written"
+_TERMINATED = ("fogbench: terminated (SIGTERM); files already complete are kept, none is "
+               "half-written")
 
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    install_sigterm()
+
+def _error_line(exc: BaseException, text: str) -> None:
+    """The one error line, then the notes an exception carries (e.g. where resumable work was
+    kept), so that the last line says what is left."""
+    print(f"fogbench: error: {text}", file=sys.stderr)
+    for note in getattr(exc, "__notes__", ()):
+        print(f"fogbench: {note}", file=sys.stderr)
+
+
+def _os_error_text(exc: OSError) -> str:
+    where = exc.filename if getattr(exc, "filename", None) else None
+    text = exc.strerror or str(exc) or type(exc).__name__
+    return f"{text} ({where})" if where else text
+
+
+def main(argv=None) -> int:
+    # The handlers first: a signal during the imports below ends with the one line too.
+    from .outdir import Terminated, install_signal_handlers, signal_received
+
+    install_signal_handlers()
+    import signal as _signal
+
     try:
-        return args.func(args)
-    except (ScenarioError, ValueError, FileNotFoundError) as exc:
-        print(f"fogbench: error: {exc}", file=sys.stderr)
-        return 2
+        parser = build_parser()
+        args = parser.parse_args(argv)
+        code = args.func(args)
+    except ValueError as exc:  # ScenarioError, LogError, EngineError, ...: bad input
+        _error_line(exc, str(exc))
+        code = 2
+    except FileNotFoundError as exc:
+        _error_line(exc, _os_error_text(exc))
+        code = 2
     except BrokenPipeError:  # `fogbench allan ... | head`: the reader left; not an error of ours
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141
     except OSError as exc:  # a full disk, a permission: one line naming the file, not a traceback
-        where = f" ({exc.filename})" if getattr(exc, "filename", None) else ""
-        print(f"fogbench: error: {exc.strerror or exc}{where}", file=sys.stderr)
-        return 1
+        _error_line(exc, _os_error_text(exc))
+        code = 1
     except KeyboardInterrupt:
-        print("fogbench: interrupted; files already complete are kept, none is half-written",
-              file=sys.stderr)
-        return 130
+        code = None
     except Terminated:
-        print("fogbench: terminated (SIGTERM); files already complete are kept, none is "
-              "half-written", file=sys.stderr)
-        return 143
+        code = None
+    # a signal whose exception was swallowed on the way (in a callback) still ends the command
+    sig = signal_received()
+    if sig is not None or code is None:
+        term = sig == _signal.SIGTERM
+        print(_TERMINATED if term else _INTERRUPTED, file=sys.stderr)
+        return 143 if term else 130
+    return code
 
 
 if __name__ == "__main__":  # pragma: no cover

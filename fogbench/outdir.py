@@ -19,7 +19,8 @@ import tempfile
 from pathlib import Path
 
 __all__ = ["MARKER", "OutDirError", "Terminated", "check_out_dir", "is_ours", "new_part_dir",
-           "replace_dir", "clean_stale", "install_sigterm"]
+           "discard_part", "replace_dir", "clean_stale", "install_signal_handlers", "check_signals",
+           "signal_received"]
 
 MARKER = ".fogbench.json"
 KINDS = ("run", "simulation")
@@ -33,13 +34,43 @@ class Terminated(BaseException):
     """SIGTERM arrived: unwind (so temporary directories are removed), then exit 143."""
 
 
-def install_sigterm() -> None:
-    """Turn SIGTERM into :class:`Terminated`, so ``finally`` blocks clean up as on Ctrl-C."""
+#: The signals (SIGINT, SIGTERM) received since :func:`install_signal_handlers`. A signal's
+#: exception can be swallowed where Python ignores exceptions (a ``__del__``, a weakref or a
+#: matplotlib callback): the record lets :func:`check_signals` raise it again before anything is
+#: put in place, and the command line never exit 0 after a signal.
+_RECEIVED: list[int] = []
 
-    def _raise(signum, frame):
+
+def install_signal_handlers() -> None:
+    """Turn SIGTERM into :class:`Terminated` and SIGINT into ``KeyboardInterrupt``, so
+    ``finally`` blocks clean up, and record each signal (:func:`signal_received`)."""
+    _RECEIVED.clear()
+
+    def _term(signum, frame):
+        _RECEIVED.append(signum)
         raise Terminated()
 
-    signal.signal(signal.SIGTERM, _raise)
+    def _int(signum, frame):
+        _RECEIVED.append(signum)
+        raise KeyboardInterrupt()
+
+    signal.signal(signal.SIGTERM, _term)
+    signal.signal(signal.SIGINT, _int)
+
+
+def signal_received() -> int | None:
+    """The last signal received since the handlers were installed, or None."""
+    return _RECEIVED[-1] if _RECEIVED else None
+
+
+def check_signals() -> None:
+    """Raise the exception of a signal that arrived (even one whose exception was swallowed):
+    called before an output is put in place, so nothing lands after Ctrl-C or SIGTERM."""
+    sig = signal_received()
+    if sig == signal.SIGTERM:
+        raise Terminated()
+    if sig == signal.SIGINT:
+        raise KeyboardInterrupt()
 
 
 def _marker(path: Path, kinds=KINDS) -> dict | None:
@@ -69,6 +100,11 @@ def check_out_dir(out: str | os.PathLike, kind: str, flag: str = "--out") -> Pat
     if given.strip() == "":
         raise OutDirError(f"{flag}: empty path; give a directory to write the {kind} into")
     p = Path(os.path.abspath(os.path.expanduser(given)))
+    cwd = Path(os.path.abspath(os.getcwd()))
+    if Path(given).name in (".", "..") or p == cwd or p in cwd.parents:
+        raise OutDirError(f"{flag} {given!r} ({p}) is the current folder or holds it; a run "
+                          "replaces its output folder whole, so it must not be where you "
+                          f"work. Give a new directory, e.g. {flag} {kind}s/my_{kind}")
     if p.name in ("", ".", "..") or p == p.parent:
         raise OutDirError(f"{flag} {given!r}: not a directory the bench can create or replace; "
                           f"give a new directory, e.g. {flag} {kind}s/my_{kind}")
@@ -104,8 +140,17 @@ def check_out_dir(out: str | os.PathLike, kind: str, flag: str = "--out") -> Pat
     return p
 
 
+#: Folders made to hold a temporary directory (its missing ancestors), removed with it by
+#: :func:`discard_part` when they are left empty: a failed command leaves no empty folder.
+_MADE: dict[Path, list[Path]] = {}
+
+
 def new_part_dir(out: Path, kind: str, info: dict) -> Path:
     """Create the hidden temporary sibling of ``out`` and write the marker into it first."""
+    made, q = [], out.parent
+    while not q.exists() and q != q.parent:
+        made.append(q)
+        q = q.parent
     out.parent.mkdir(parents=True, exist_ok=True)
     clean_stale(out)
     tmp = Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}.", suffix=".part"))
@@ -114,19 +159,37 @@ def new_part_dir(out: Path, kind: str, info: dict) -> Path:
     os.chmod(tmp, 0o777 & ~umask)  # mkdtemp makes it private; the result is an ordinary folder
     from .io import atomic_write_text
 
-    atomic_write_text(tmp / MARKER, json.dumps({"kind": kind, **info, "pid": os.getpid()},
-                                                indent=2))
+    _MADE[tmp] = made
+    try:
+        atomic_write_text(tmp / MARKER, json.dumps({"kind": kind, **info, "pid": os.getpid()},
+                                                    indent=2))
+    except BaseException:
+        discard_part(tmp)
+        raise
     return tmp
+
+
+def discard_part(tmp: Path) -> None:
+    """Remove a temporary directory of :func:`new_part_dir` and the folders made for it, if
+    nothing else was put in them."""
+    shutil.rmtree(tmp, ignore_errors=True)
+    for d in _MADE.pop(tmp, []):  # deepest first
+        try:
+            d.rmdir()
+        except OSError:
+            break
 
 
 def replace_dir(tmp: Path, out: Path, kind: str) -> None:
     """Move the complete ``tmp`` into place at ``out``, replacing an empty directory or one of
     ours of the same kind; anything else that appeared meanwhile is refused, ``tmp`` removed."""
     try:
+        check_signals()
         check_out_dir(out, kind)
-    except OutDirError:
-        shutil.rmtree(tmp, ignore_errors=True)
+    except BaseException:
+        discard_part(tmp)
         raise
+    _MADE.pop(tmp, None)
     if out.exists():
         old = Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}.", suffix=".old"))
         os.rmdir(old)

@@ -299,13 +299,19 @@ def write_recording(res, path: Path, replicates: dict | None = None) -> None:
     path = Path(path)
     rec = rr.RecordingStream(application_id=APPLICATION_ID, recording_id=res.scenario.name,
                              send_properties=False)
-    rec.save(path)
+    # Logged into memory, then written by this process: a file sink writes from Rerun's own
+    # thread, where a full disk or a file-size limit is only a line on stderr, never an error.
+    mem = rec.memory_recording()
     try:
         w = _log_all(rec, res, reps)
         rec.send_blueprint(_blueprint(res, w, reps), make_active=True, make_default=True)
         rec.flush()
+        data = mem.drain_as_bytes()
     finally:
         rec.disconnect()
+    from fogcomp.base import atomic_write_bytes
+
+    atomic_write_bytes(path, data)
 
 
 def _log_all(rec, res, reps: dict) -> _Writer:

@@ -24,7 +24,7 @@ from fogcomp.units import DPH, DPS  # noqa: E402
 from .fmt import (KEY_METRICS, ci_text, decimation, fmt, md_table,  # noqa: E402
                   metrics_table, p_better_text)
 from .io import atomic_write_bytes, atomic_write_text, run_arrays, versions  # noqa: E402
-from .outdir import check_out_dir, new_part_dir, replace_dir  # noqa: E402
+from .outdir import check_out_dir, discard_part, new_part_dir, replace_dir  # noqa: E402
 from .runner import ScenarioResult, TERM_NAMES, thermal_segments, write_metrics  # noqa: E402
 
 __all__ = ["write_run_dir", "dwells", "dwell_means", "raw_segment_stability"]
@@ -694,9 +694,14 @@ def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_d
         fig_names, decim, notes = {}, {}, []
 
         def figure(what: str, fn, *args):
-            """Draw one figure; a figure that cannot be drawn is noted, never fatal."""
+            """Draw one figure; a figure that cannot be drawn is noted, never fatal. A figure
+            that cannot be written (a full disk, a file-size limit) or memory running out is
+            an error of the whole command: nothing is put in place."""
             try:
                 return fn(*args)
+            except (OSError, MemoryError):
+                plt.close("all")
+                raise
             except Exception as exc:  # noqa: BLE001 - the run's numbers matter more
                 plt.close("all")
                 notes.append(f"figure {what} left out: {type(exc).__name__}: {exc}")
@@ -769,8 +774,14 @@ def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_d
         replace_dir(tmp, out, "run")
         if work is not None:
             work.remove()  # only now: until the run directory is in place it is the only copy
+    except OSError as exc:
+        discard_part(tmp)
+        name = str(getattr(exc, "filename", "") or "")
+        if name.startswith(str(tmp)):  # name the file as the user will look for it
+            raise type(exc)(exc.errno, exc.strerror, str(out) + name[len(str(tmp)):]) from None
+        raise
     except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
+        discard_part(tmp)
         raise
     return out
 

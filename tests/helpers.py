@@ -31,11 +31,11 @@ def need_realdata(*paths: Path) -> None:
 
 def run_cli(*args, cwd=None) -> tuple[int, str, str]:
     """``fogbench ARGS`` in this process, as the console command runs it: (exit code, stdout,
-    stderr). The SIGTERM handler the command installs is put back afterwards."""
+    stderr). The SIGTERM and SIGINT handlers the command installs are put back afterwards."""
     from fogbench.cli import main
 
     out, err = io.StringIO(), io.StringIO()
-    handler = signal.getsignal(signal.SIGTERM)
+    handlers = {s: signal.getsignal(s) for s in (signal.SIGTERM, signal.SIGINT)}
     try:
         with contextlib.chdir(cwd or os.getcwd()), contextlib.redirect_stdout(out), \
                 contextlib.redirect_stderr(err):
@@ -44,7 +44,8 @@ def run_cli(*args, cwd=None) -> tuple[int, str, str]:
             except SystemExit as exc:  # argparse
                 code = exc.code
     finally:
-        signal.signal(signal.SIGTERM, handler)
+        for s, h in handlers.items():
+            signal.signal(s, h)
     return code, out.getvalue(), err.getvalue()
 
 

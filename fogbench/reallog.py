@@ -16,6 +16,7 @@ from __future__ import annotations
 import csv
 import functools
 import gzip
+import io
 import json
 import math
 import os
@@ -23,6 +24,7 @@ import re
 import sys
 import tempfile
 import warnings
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -59,6 +61,52 @@ PROGRESS_MIN_ROWS = 200_000
 
 class LogError(ValueError):
     """A log file, a curve file or a command-line option is refused (one-line message)."""
+
+
+class PlausibilityWarning(UserWarning):
+    """A log's values contradict the unit its header names (read, but say so)."""
+
+
+#: Largest magnitude a channel in a physical unit may reach, SI: (warn beyond, refuse beyond).
+#: Rates: the widest-range gyros (projectile IMUs) measure about 20,000 deg/s; 10^6 deg/s (2,800
+#: revolutions per second) is no measurement at all. Specific force: IMU accelerometers reach
+#: 200 g, shock sensors 10^5 g. Temperatures: below absolute zero is refused, beyond 500 C
+#: (past any FOG's survival range) warned.
+MAGNITUDE_LIMITS = {"gyro": (2.0e4 * DEG, 1.0e6 * DEG), "acc": (2.0e3 * G0, 1.0e6 * G0)}
+#: Sample rates of gyro logs, Hz: beyond this a time column's unit is suspect (warned).
+PLAUSIBLE_FS_HZ = (0.01, 50_000.0)
+_DISPLAY = {"gyro": (1.0 / DEG, "deg/s"), "acc": (1.0 / G0, "g")}
+
+
+def _check_magnitude(path, ch: str, column: str, unit: str, v: np.ndarray,
+                     first_line: int) -> None:
+    """Refuse values no sensor measures in the unit the column names; warn of implausible
+    ones (a unit contradicted by the values: deg/s under _rps reads 57 times too large)."""
+    kind = ch.split("_")[0]
+    if kind == "temp":
+        i = int(np.argmin(v))
+        if v[i] < -273.15:
+            raise LogError(f"{path}: line {first_line + i}, column {column!r}: "
+                           f"{_fmt_number(v[i])} C is below absolute zero")
+        if float(np.max(v)) > 500.0:
+            warnings.warn(PlausibilityWarning(
+                f"{path}: column {column!r} reaches {float(np.max(v)):.4g} C, beyond any "
+                "FOG's survival range: is it a temperature in deg C?"))
+        return
+    warn, refuse = MAGNITUDE_LIMITS[kind]
+    scale, shown = _DISPLAY[kind]
+    i = int(np.argmax(np.abs(v)))
+    peak = abs(float(v[i]))
+    if peak > refuse:
+        raise LogError(f"{path}: line {first_line + i}, column {column!r}: "
+                       f"{_fmt_number(v[i] / _unit_table(ch)[unit])} {unit} = "
+                       f"{peak * scale:.3g} {shown}, which no sensor measures "
+                       f"(refused beyond {refuse * scale:.0e} {shown}); check the column's unit")
+    if peak > warn:
+        warnings.warn(PlausibilityWarning(
+            f"{path}: column {column!r} reaches {peak * scale:.4g} {shown} (line "
+            f"{first_line + i}), beyond any {'gyro' if kind == 'gyro' else 'accelerometer'}'s "
+            f"range ({warn * scale:g} {shown}): is its unit {unit!r} right?"))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -178,21 +226,60 @@ def _check_unit(path, channel: str, column: str, unit: str | None) -> str:
     return unit
 
 
-def _leading_comments(path: Path) -> int:
-    import gzip
-
-    opener = gzip.open if path.suffix == ".gz" else open
-    k = 0
+def _file_bytes(path: Path) -> bytes:
+    """The file's bytes, gunzipped when it is gzip (by its magic bytes, whatever its name)."""
     try:
-        with opener(path, "rt", errors="replace") as f:
-            for line in f:
-                if line.startswith("#"):
-                    k += 1
-                else:
-                    break
+        raw = path.read_bytes()
     except OSError as exc:
-        raise LogError(f"{path}: cannot be read ({exc})") from None
+        raise LogError(f"{path}: cannot be read ({exc.strerror or exc})") from None
+    if raw[:2] == b"\x1f\x8b":
+        try:
+            raw = gzip.decompress(raw)
+        except (OSError, EOFError, zlib.error) as exc:
+            raise LogError(f"{path}: not a readable gzip file ({exc})") from None
+    return raw
+
+
+def _leading_comments(raw: bytes) -> int:
+    """Lines at the top that start with ``#`` (comments before the header)."""
+    k, pos = 0, 0
+    while raw.startswith(b"#", pos):
+        nl = raw.find(b"\n", pos)
+        k += 1
+        if nl < 0:
+            break
+        pos = nl + 1
     return k
+
+
+def _field_counts(raw: bytes, skip: int) -> tuple[np.ndarray, np.ndarray]:
+    """(line number, number of comma-separated fields) of every non-blank line after the first
+    ``skip`` lines, header included. pandas fills a short row with NaN without a word (and a
+    missing field in a column no command uses would pass); this count is what refuses it. By
+    hand because no CSV reader we use reports it with the line: a count of commas per line,
+    vectorised (about 0.2 s for 10^6 rows), or Python's csv module when fields are quoted."""
+    if b'"' in raw:
+        rows = csv.reader(io.StringIO(raw.decode("utf-8", "replace")))
+        lines, counts = [], []
+        for k, row in enumerate(rows, start=1):
+            if k > skip and row and any(c.strip() for c in row):
+                lines.append(rows.line_num)
+                counts.append(len(row))
+        return np.asarray(lines), np.asarray(counts)
+    buf = np.frombuffer(raw, dtype=np.uint8)
+    ends = np.flatnonzero(buf == 10)
+    if ends.size == 0 or ends[-1] != buf.size - 1:
+        ends = np.append(ends, buf.size)        # a last line without its newline
+    starts = np.concatenate(([0], ends[:-1] + 1))
+    length = ends - starts
+    blank = (length == 0) | ((length == 1) & (buf[np.minimum(starts, buf.size - 1)] == 13))
+    commas = np.zeros(starts.size, dtype=np.int64)
+    full = ~blank
+    if full.any():  # from each line's start to the next one's: the bytes between hold no comma
+        commas[full] = np.add.reduceat((buf == 44).view(np.uint8), starts[full], dtype=np.int64)
+    keep = ~blank
+    keep[:skip] = False
+    return np.flatnonzero(keep) + 1, commas[keep] + 1
 
 
 def _fmt_number(x) -> str:
@@ -209,16 +296,18 @@ def _read_frame(path):
     p = Path(path)
     if p.is_dir():
         raise LogError(f"{path}: is a directory; give a CSV file")
+    if p.is_symlink() and not p.exists():
+        raise LogError(f"{path}: is a symbolic link that leads to no file (a loop, or its "
+                       "target is missing)")
     if not p.is_file():
         raise LogError(f"{path}: file not found")
-    skip = _leading_comments(p)
+    raw = _file_bytes(p)
+    skip = _leading_comments(raw)
     try:
         # The header as written: pandas renames a repeated name 'a' to 'a.1' in the frame.
-        raw_header = pd.read_csv(p, skiprows=skip, compression="infer", header=None, nrows=1,
+        raw_header = pd.read_csv(io.BytesIO(raw), skiprows=skip, header=None, nrows=1,
                                  dtype=str, skipinitialspace=True, keep_default_na=False)
-        frame = pd.read_csv(p, skiprows=skip, compression="infer", skipinitialspace=True)
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, OSError,
-            EOFError) as exc:
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
         raise LogError(f"{path}: not a readable CSV file ({str(exc).splitlines()[0]})") from None
     names = [str(c).strip() for c in raw_header.iloc[0].tolist()] if len(raw_header) else []
     seen = set()
@@ -228,14 +317,26 @@ def _read_frame(path):
                            f"header (columns {names.index(name) + 1} and {k + 1}); each column "
                            "needs its own name")
         seen.add(name)
-    frame.columns = [str(c).strip() for c in frame.columns]
-    if len(frame.columns) == 1:
+    if len(names) == 1:
         for sep, word in ((";", "semicolons"), ("\t", "tabs"), ("|", "'|'")):
-            if sep in frame.columns[0]:
-                raise LogError(f"{path}: line {skip + 1}: one column {frame.columns[0]!r}: the "
+            if sep in names[0]:
+                raise LogError(f"{path}: line {skip + 1}: one column {names[0]!r}: the "
                                f"file seems to be separated by {word}; fogbench reads "
                                "comma-separated files (convert it, e.g. with pandas: "
                                f"read_csv(sep={sep!r}).to_csv(...), minding decimal commas)")
+    lines, counts = _field_counts(raw, skip)
+    if counts.size:
+        bad = np.flatnonzero(counts != counts[0])
+        if bad.size:
+            k = int(bad[0])
+            raise LogError(f"{path}: line {lines[k]}: {counts[k]} field(s), the header (line "
+                           f"{lines[0]}) has {counts[0]}; {bad.size} such row(s) in all: every "
+                           "row needs one value per column")
+    try:
+        frame = pd.read_csv(io.BytesIO(raw), skiprows=skip, skipinitialspace=True)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
+        raise LogError(f"{path}: not a readable CSV file ({str(exc).splitlines()[0]})") from None
+    frame.columns = [str(c).strip() for c in frame.columns]
     return frame, skip + 2          # line number of data row 0 = skip + 2 (1-based, header)
 
 
@@ -364,6 +465,8 @@ def read_log(path, *, mapping=None, channels=None, fs=None, gaps: str = "refuse"
         factor = _unit_table(ch)[unit]
         values[ch] = v if factor is None else v * factor
         units[ch], sources[ch] = unit, src
+        if factor is not None:
+            _check_magnitude(path, ch, src, unit, values[ch], first_line)
     n = len(frame)
     segments = [(0, n)]
     if "time" in found:
@@ -412,6 +515,13 @@ def read_log(path, *, mapping=None, channels=None, fs=None, gaps: str = "refuse"
                        "give --fs HZ")
     if not (math.isfinite(fs) and fs > 0):
         raise LogError(f"--fs: expected a positive sample rate in Hz, got {_fmt_number(fs)}")
+    lo, hi = PLAUSIBLE_FS_HZ
+    if not lo <= fs <= hi:
+        where = f"the time column {found['time'][0]!r}" if "time" in found else "--fs"
+        warnings.warn(PlausibilityWarning(
+            f"{path}: {where} gives a sample rate of {fs:.6g} Hz, outside the {lo:g} Hz to "
+            f"{hi / 1000:g} kHz of gyro logs: is the time unit in its name right (ms or us "
+            "written under _s, or s under _ms)?"))
     longest = max(b - a for a, b in segments)
     if longest < min_samples:
         raise LogError(f"{path}: record too short: {longest} samples"
@@ -527,6 +637,13 @@ def _is_compensated_csv(path: Path) -> bool:
     return any(_COMPENSATED_COLUMN.match(c.strip()) for c in header)
 
 
+def _named(exc: OSError, path) -> OSError:
+    """``exc`` naming ``path`` when it names no file (a write on a full disk names none)."""
+    from fogcomp.base import _named as named
+
+    return named(exc, path)
+
+
 def _same_file(a, b) -> bool:
     a, b = Path(a), Path(b)
     try:
@@ -534,7 +651,10 @@ def _same_file(a, b) -> bool:
             return os.path.samefile(a, b)
     except OSError:
         pass
-    return a.resolve() == b.resolve()
+    try:
+        return a.resolve() == b.resolve()
+    except (OSError, RuntimeError):  # a symbolic link loop (RuntimeError before Python 3.13)
+        return os.path.abspath(a) == os.path.abspath(b)
 
 
 def _check_place(path: Path, flag: str) -> None:
@@ -562,6 +682,7 @@ class _Outputs:
         self.overwrite = overwrite
         self.command = command
         self.pending: list[tuple[str, Path]] = []
+        self.created: list[Path] = []   # folders made for the outputs: removed if it fails
 
     def target(self, path: Path, protect: tuple = (), *, recognise=None, what: str = "output",
                flag: str = "--out") -> Path:
@@ -634,30 +755,105 @@ class _Outputs:
                                f"{self.command} in {path})")
         return paths
 
+    def _mkdirs(self, folder: Path) -> None:
+        missing = []
+        q = folder
+        while not q.exists() and q != q.parent:
+            missing.append(q)
+            q = q.parent
+        for d in reversed(missing):
+            d.mkdir()
+            self.created.append(d)
+
     def temp(self, path: Path) -> str:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+        """A temporary file beside ``path`` (renamed onto it by :meth:`commit`)."""
+        try:
+            self._mkdirs(path.parent)
+            fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+        except OSError as exc:
+            raise _named(exc, path) from None
         os.close(fd)
         self.pending.append((tmp, path))
         return tmp
 
+    def write(self, path: Path, fn) -> None:
+        """``fn(temporary path)`` writes the output ``path``; an ``OSError`` names ``path``."""
+        tmp = self.temp(path)
+        try:
+            fn(tmp)
+        except OSError as exc:
+            raise _named(exc, path) from None
+
     def write_text(self, path: Path, text: str) -> None:
-        with open(self.temp(path), "w") as f:
-            f.write(text)
+        def put(tmp):
+            with open(tmp, "w") as f:
+                f.write(text)
+
+        self.write(path, put)
+
+    def save_model(self, model, stem: Path) -> tuple[Path, Path]:
+        """``fogcomp.save_model`` to a temporary stem beside ``stem``; :meth:`commit` renames
+        both files (``stem.json``, ``stem.npz``) into place with the rest."""
+        import fogcomp
+
+        try:
+            self._mkdirs(stem.parent)
+            tmp = Path(tempfile.mkdtemp(dir=stem.parent, prefix=f".{stem.name}.",
+                                        suffix=".tmp"))
+        except OSError as exc:
+            raise _named(exc, stem) from None
+        self.created.append(tmp)
+        final = (stem.with_name(stem.name + ".json"), stem.with_name(stem.name + ".npz"))
+        try:
+            jtmp, ntmp = fogcomp.save_model(model, tmp / "model")
+        except OSError as exc:  # named as the user will look for it, not by its temporary name
+            target = final[1] if str(exc.filename or "").endswith(".npz") else final[0]
+            raise type(exc)(exc.errno, exc.strerror, str(target)) from None
+        self.pending += [(str(jtmp), final[0]), (str(ntmp), final[1])]
+        return final
 
     def commit(self) -> None:
+        """Rename every output into place (none after Ctrl-C or SIGTERM)."""
+        from .outdir import check_signals
+
+        check_signals()
         umask = os.umask(0)
         os.umask(umask)
         for tmp, path in self.pending:
-            os.chmod(tmp, 0o666 & ~umask)
-            os.replace(tmp, path)
+            try:
+                os.chmod(tmp, 0o666 & ~umask)
+                os.replace(tmp, path)
+            except OSError as exc:
+                raise _named(exc, path) from None
         self.pending.clear()
+        self._remove_created(only_empty=True)
+        self.created = [d for d in self.created if d.exists()]
+
+    def _remove_created(self, only_empty: bool) -> None:
+        import shutil
+
+        for d in reversed(self.created):
+            if not d.is_dir():
+                continue
+            if d.name.endswith(".tmp"):  # our own temporary folder (a model's files)
+                shutil.rmtree(d, ignore_errors=True)
+            elif not only_empty or not any(d.iterdir()):
+                try:
+                    d.rmdir()
+                except OSError:
+                    pass
 
     def discard(self) -> None:
+        """Remove the temporary files and the folders made for the outputs (if still empty):
+        a failed command leaves nothing behind."""
         for tmp, _ in self.pending:
-            if os.path.exists(tmp):
+            try:
                 os.unlink(tmp)
+            except OSError:
+                pass
         self.pending.clear()
+        self._remove_created(only_empty=True)
+        self.created.clear()
 
 
 # ---------------------------------------------------------------------------------------------
@@ -881,8 +1077,9 @@ def _cmd_allan(args) -> int:
         if targets is not None:
             out.write_text(targets["allan.json"], json.dumps(doc, indent=2, allow_nan=False))
             for name, curve, ident, _ in results:
-                _plot(out.temp(targets[f"allan_{name}.png"]), f"{Path(src).name}: {name}",
-                      curve, ident, label)
+                out.write(targets[f"allan_{name}.png"],
+                          lambda tmp, n=name, c=curve, i=ident: _plot(
+                              tmp, f"{Path(src).name}: {n}", c, i, label))
             out.commit()
     finally:
         out.discard()
@@ -1043,14 +1240,19 @@ def _cmd_calibrate(args) -> int:
             caught = [w for w in caught if not _is_identifiability(w)]
         for w in caught:
             _warning(f"calibrate {method}, {ch}: {w.message}")
-    doc = {"format": "fogbench-log-model", "version": 1, "method": method, "fs_hz": log.fs,
-           "axes": {ch: {"model": paths[ch].name, "unit": log.units[ch]} for ch in axes},
-           "calibration_file": str(args.log)}
     try:
-        # save_model writes atomically itself; the manifest goes last, so a model directory
-        # without a complete manifest is never taken for a finished one.
+        # every file is written under a temporary name and renamed into place with the others
+        # (the manifest last): a failure leaves no model set without its manifest
+        entries = {}
         for ch in axes:
-            fogcomp.save_model(models[ch], paths[ch])
+            jpath, npath = out.save_model(models[ch], paths[ch])
+            pending = dict((final, tmp) for tmp, final in out.pending)
+            entries[ch] = {"model": paths[ch].name, "unit": log.units[ch], "method": method,
+                           "json_sha256": _file_sha256(pending[jpath]),
+                           "npz_sha256": _file_sha256(pending[npath])}
+        doc = _sealed({"format": "fogbench-log-model", "version": MANIFEST_VERSION,
+                       "method": method, "fs_hz": log.fs, "axes": entries,
+                       "calibration_file": str(args.log)})
         out.write_text(manifest, json.dumps(doc, indent=2, allow_nan=False))
         out.commit()
     finally:
@@ -1074,6 +1276,37 @@ def _gyro_data(log: Log, ch: str, sl: slice):
         temp_rate = np.gradient(temp, 1.0 / log.fs) if temp.size > 1 else np.zeros_like(temp)
     return fogcomp.GyroData(rate=log.channels[ch][sl], fs=log.fs, g=g, temp=temp,
                             temp_rate=temp_rate)
+
+
+#: Scale factor range, SI per SI, of a triad whose columns are in a physical unit (dps, g, ...):
+#: a calibration gives values near 1 there; beyond a factor 2 the unit in the header is wrong.
+PHYSICAL_SCALE_RANGE = (0.5, 2.0)
+
+
+def _check_triad(path, log: Log, acc: dict, gyro: dict, cal) -> None:
+    """Refuse a triad calibration that contradicts the procedure's physics (swapped or
+    mislabelled columns), naming the columns; nothing is written then."""
+    from fogcomp.calibration import ferraris_plausibility
+
+    problems = ferraris_plausibility(acc, gyro, cal)
+    lo, hi = PHYSICAL_SCALE_RANGE
+    for sensor, scale in (("acc", cal.acc_scale), ("gyro", cal.gyro_scale)):
+        for j, ax in enumerate("xyz"):
+            ch = f"{sensor}_{ax}"
+            if log.units[ch] != "au" and not lo <= abs(scale[j]) <= hi:
+                problems.append((ch, f"its scale factor comes out {abs(scale[j]):.4g} "
+                                     f"{log.units[ch]} per {log.units[ch]} (a physical unit "
+                                     f"gives {lo:g} to {hi:g}): is the unit in its name right?"))
+    if problems:
+        ch, why = problems[0]
+        swapped = any(c.startswith("acc_") and "gravity" in w for c, w in problems)
+        raise LogError(
+            f"{path}: column {log.sources[ch]!r} ({ch}): {why}"
+            + (f"; {len(problems) - 1} more such problem(s)" if len(problems) > 1 else "")
+            + ("; are the accelerometer and gyro columns swapped? (accelerometer columns: "
+               + ", ".join(log.sources[f"acc_{a}"] for a in "xyz") + "; gyro columns: "
+               + ", ".join(log.sources[f"gyro_{a}"] for a in "xyz") + ")" if swapped else "")
+            + "; nothing was written")
 
 
 def _calibrate_ferraris(args, out: _Outputs, manifest: Path) -> int:
@@ -1105,10 +1338,12 @@ def _calibrate_ferraris(args, out: _Outputs, manifest: Path) -> int:
         acc[p] = np.column_stack([log.channels[f"acc_{a}"][sel] for a in "xyz"])
         gyro[p] = np.column_stack([log.channels[f"gyro_{a}"][sel] for a in "xyz"])
     cal = ferraris_calibration(acc, gyro, log.fs, args.angle_deg * DEG, g=args.g)
-    doc = {"format": "fogbench-triad-model", "version": 1, "method": "ferraris",
-           "fs_hz": log.fs, "calibration_file": str(args.log),
-           "columns": {ch: {"column": log.sources[ch], "unit": log.units[ch]} for ch in chans},
-           "calibration": cal.to_dict()}
+    _check_triad(args.log, log, acc, gyro, cal)
+    doc = _sealed({"format": "fogbench-triad-model", "version": MANIFEST_VERSION,
+                   "method": "ferraris", "fs_hz": log.fs, "calibration_file": str(args.log),
+                   "columns": {ch: {"column": log.sources[ch], "unit": log.units[ch]}
+                               for ch in chans},
+                   "calibration": cal.to_dict()})
     try:
         out.write_text(manifest, json.dumps(doc, indent=2, allow_nan=False))
         out.commit()
@@ -1123,23 +1358,139 @@ def _calibrate_ferraris(args, out: _Outputs, manifest: Path) -> int:
 
 # ---------------------------------------------------------------------------------------------
 # compensate
+#: Version of the model files ``calibrate`` writes (2: checksummed, pinning the per-axis files).
+MANIFEST_VERSION = 2
+
+
+def _canonical_sha256(doc: dict) -> str:
+    from fogcomp.base import _canonical_sha256 as sha
+
+    return sha(doc)
+
+
+def _sealed(doc: dict) -> dict:
+    """``doc`` with ``sha256``: the SHA-256 of its canonical JSON (as fogcomp's model files)."""
+    return {**doc, "sha256": _canonical_sha256(doc)}
+
+
+def _file_sha256(path) -> str:
+    import hashlib
+
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _model_error(path, text: str):
+    from fogcomp.base import ModelFileError
+
+    return ModelFileError(f"{path}: {text}")
+
+
+def _key(doc: dict, key: str, kind, path, where: str = ""):
+    """``doc[key]`` of the expected kind, else a ModelFileError naming the file and key."""
+    name = f"{where}{key}"
+    if key not in doc:
+        raise _model_error(path, f"missing key {name!r}")
+    v = doc[key]
+    ok = {"str": isinstance(v, str) and v != "", "dict": isinstance(v, dict),
+          "fs": isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+          and v > 0, "sha": isinstance(v, str) and re.fullmatch(r"[0-9a-f]{64}", v) is not None}
+    if not ok[kind]:
+        what = {"str": "a text", "dict": "a table", "fs": "a positive sample rate in Hz",
+                "sha": "a SHA-256 (64 hex digits)"}[kind]
+        raise _model_error(path, f"key {name!r} must be {what}, got {v!r}")
+    return v
+
+
 def _load_manifest(path) -> tuple[dict, Path]:
+    """A model file of ``calibrate`` read and checked whole: format, version, its own checksum,
+    every key with its type. The per-axis files are checked by :func:`_load_axis_models`."""
     p = Path(path)
     if p.suffix != ".json":
         p = p.with_name(p.name + ".json")
     if not p.is_file():
         raise LogError(f"{p}: model file not found (written by fogbench calibrate --out)")
     try:
-        doc = json.loads(p.read_text())
-    except json.JSONDecodeError as exc:
-        raise LogError(f"{p}: not valid JSON ({exc})") from None
+        doc = json.loads(p.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise _model_error(p, f"not valid JSON ({exc})") from None
     if not isinstance(doc, dict) or doc.get("format") not in ("fogbench-log-model",
                                                               "fogbench-triad-model"):
-        raise LogError(f"{p}: key 'format' must be 'fogbench-log-model' or "
-                       "'fogbench-triad-model' (a file written by fogbench calibrate)")
-    if doc.get("version") != 1:
-        raise LogError(f"{p}: key 'version' is {doc.get('version')!r}; this fogbench reads 1")
+        raise _model_error(p, "key 'format' must be 'fogbench-log-model' or "
+                              "'fogbench-triad-model' (a file written by fogbench calibrate)")
+    if doc.get("version") != MANIFEST_VERSION:
+        raise _model_error(p, f"key 'version' is {doc.get('version')!r}; this fogbench reads "
+                              f"{MANIFEST_VERSION} (calibrate again to write it)")
+    _key(doc, "sha256", "sha", p)
+    if doc["sha256"] != _canonical_sha256(doc):
+        raise _model_error(p, "content does not match its checksum, key 'sha256' (the file was "
+                              "edited or damaged); calibrate again")
+    _key(doc, "method", "str", p)
+    _key(doc, "fs_hz", "fs", p)
+    if doc["format"] == "fogbench-triad-model":
+        cols = _key(doc, "columns", "dict", p)
+        for ch in [f"{k}_{a}" for k in ("acc", "gyro") for a in "xyz"]:
+            entry = _key(cols, ch, "dict", p, "columns.")
+            _key(entry, "column", "str", p, f"columns.{ch}.")
+            _key(entry, "unit", "str", p, f"columns.{ch}.")
+        _key(doc, "calibration", "dict", p)
+    else:
+        axes = _key(doc, "axes", "dict", p)
+        if not axes:
+            raise _model_error(p, "key 'axes' must name at least one fitted gyro axis")
+        for ch, info in axes.items():
+            if not re.fullmatch(r"gyro_[xyz]", ch) or not isinstance(info, dict):
+                raise _model_error(p, f"key 'axes.{ch}': expected a gyro axis (gyro_x, gyro_y, "
+                                      "gyro_z) with a table")
+            for key, kind in (("model", "str"), ("unit", "str"), ("method", "str"),
+                              ("json_sha256", "sha"), ("npz_sha256", "sha")):
+                _key(info, key, kind, p, f"axes.{ch}.")
+            if info["method"] != doc["method"]:
+                raise _model_error(p, f"key 'axes.{ch}.method' is {info['method']!r}, the file's "
+                                      f"method is {doc['method']!r}")
+            if info["unit"] not in GYRO_UNITS or GYRO_UNITS[info["unit"]] is None:
+                raise _model_error(p, f"key 'axes.{ch}.unit': expected a rate unit "
+                                      f"({', '.join(u for u, f in GYRO_UNITS.items() if f)}), "
+                                      f"got {info['unit']!r}")
+            if Path(info["model"]).name != info["model"]:
+                raise _model_error(p, f"key 'axes.{ch}.model' must be a file name beside the "
+                                      f"model file, got {info['model']!r}")
     return doc, p
+
+
+def _load_axis_models(doc: dict, mpath: Path) -> dict:
+    """The per-axis fogcomp models a manifest pins, each checked against the manifest: the
+    SHA-256 of both of its files (a swapped, replaced or edited file is refused), its method,
+    and its own sample rate where it keeps one (``fs_``)."""
+    import fogcomp
+
+    models = {}
+    for ch, info in doc["axes"].items():
+        stem = mpath.with_name(info["model"])
+        for suffix, key in ((".json", "json_sha256"), (".npz", "npz_sha256")):
+            f = stem.with_name(stem.name + suffix)
+            try:
+                digest = _file_sha256(f)
+            except OSError as exc:
+                raise _model_error(f, f"cannot be read ({exc.strerror or exc}); the model file "
+                                      f"{mpath} names it for {ch}") from None
+            if digest != info[key]:
+                raise _model_error(f, f"does not match the checksum {mpath} pins for {ch} "
+                                      f"(key 'axes.{ch}.{key}'): the file was replaced, swapped "
+                                      "with another axis' or edited; calibrate again")
+        model = fogcomp.load_model(stem)
+        if model.name != info["method"]:
+            raise _model_error(stem.with_name(stem.name + ".json"),
+                               f"holds a {model.name!r} model, {mpath} says {info['method']!r}")
+        fs_model = getattr(model, "fs_", None)
+        if fs_model is not None and abs(float(fs_model) / float(doc["fs_hz"]) - 1.0) > 1e-9:
+            raise _model_error(mpath, f"key 'fs_hz' is {doc['fs_hz']:g} Hz, the {ch} model was "
+                                      f"fitted at {float(fs_model):g} Hz")
+        models[ch] = model
+    return models
 
 
 #: gzip level of a ``.csv.gz`` output: 1 writes the 10^6-row ADIS log about 5x faster than
@@ -1253,19 +1604,21 @@ def _cmd_compensate(args) -> int:
     target = _compensate_target(out, args, (args.log,))
     doc, mpath = _load_manifest(args.model)
     model_files = [mpath]
-    if doc["format"] == "fogbench-log-model" and isinstance(doc.get("axes"), dict):
+    if doc["format"] == "fogbench-log-model":
         for info in doc["axes"].values():
-            if isinstance(info, dict) and isinstance(info.get("model"), str):
-                stem = mpath.with_name(info["model"])
-                model_files += [stem.with_name(stem.name + ".json"),
-                                stem.with_name(stem.name + ".npz")]
+            stem = mpath.with_name(info["model"])
+            model_files += [stem.with_name(stem.name + ".json"),
+                            stem.with_name(stem.name + ".npz")]
     _compensate_target(out, args, (args.log, *model_files))
     frame_new = {}
     if doc["format"] == "fogbench-triad-model":
         from fogcomp.calibration import TriadCalibration
 
-        cal = TriadCalibration.from_dict(doc.get("calibration"), str(mpath))
-        cols = doc.get("columns", {})
+        try:
+            cal = TriadCalibration.from_dict(doc["calibration"], f"{mpath}: key 'calibration'")
+        except ValueError as exc:
+            raise _model_error(mpath, str(exc).removeprefix(f"{mpath}: ")) from None
+        cols = doc["columns"]
         chans = [f"{k}_{a}" for k in ("acc", "gyro") for a in "xyz"]
         from_model = {ch: (cols[ch]["column"], cols[ch]["unit"]) for ch in chans if ch in cols}
         # Applying a triad calibration does not depend on the sample rate: without a time
@@ -1287,15 +1640,8 @@ def _cmd_compensate(args) -> int:
         for j, x in enumerate("xyz"):
             frame_new[f"acc_{x}_cal_mps2"] = a[:, j]
     else:
-        axes = doc.get("axes")
-        if not isinstance(axes, dict) or not axes:
-            raise LogError(f"{mpath}: key 'axes' must name at least one fitted gyro axis")
-        models = {}
-        for ch, info in axes.items():
-            try:
-                models[ch] = fogcomp.load_model(mpath.with_name(info["model"]))
-            except (KeyError, TypeError):
-                raise LogError(f"{mpath}: key 'axes.{ch}' must have a 'model' entry") from None
+        axes = doc["axes"]
+        models = _load_axis_models(doc, mpath)
         need = list(axes)
         reqs = set().union(*(type(m).requires for m in models.values()))
         if "g" in reqs:
@@ -1320,7 +1666,12 @@ def _cmd_compensate(args) -> int:
                 with warnings.catch_warnings(record=True) as caught:
                     warnings.simplefilter("always")
                     for a, b in log.segments:
-                        comp[a:b] = m.compensate(_gyro_data(log, ch, slice(a, b)))
+                        try:
+                            comp[a:b] = m.compensate(_gyro_data(log, ch, slice(a, b)))
+                        except (fogcomp.DivergenceError, ValueError) as exc:
+                            raise LogError(f"{args.log}: the {m.name} model ({mpath}) cannot "
+                                           f"compensate {ch} (column {log.sources[ch]!r}, lines "
+                                           f"{a + 2}-{b + 1}): {exc}") from None
                 for w in caught:
                     _warning(f"compensate, {ch}: {w.message}")
                 frame_new[f"{ch}_comp_{unit}"] = comp / GYRO_UNITS[unit]
@@ -1329,11 +1680,18 @@ def _cmd_compensate(args) -> int:
     if clash:
         raise LogError(f"{args.log}: already has column {clash[0]!r}; compensating it again "
                        "would overwrite it")
+    for col, v in frame_new.items():
+        bad = np.flatnonzero(~np.isfinite(v))
+        if bad.size:
+            raise LogError(f"{args.log}: line {bad[0] + 2}: the compensated {col} is not finite "
+                           f"({bad.size} rows); the log's values are beyond what the model "
+                           "can apply to (check the units of the input columns)")
     frame_new = {k: _significant(v) for k, v in frame_new.items()}
     result = pd.concat([log.frame, pd.DataFrame(frame_new, index=log.frame.index)], axis=1)
     try:
-        _write_csv(result, out.temp(target), gz=target.name.lower().endswith(".gz"),
-                   progress=log.n >= PROGRESS_MIN_ROWS)
+        out.write(target, lambda tmp: _write_csv(result, tmp,
+                                                 gz=target.name.lower().endswith(".gz"),
+                                                 progress=log.n >= PROGRESS_MIN_ROWS))
         out.commit()
     finally:
         out.discard()

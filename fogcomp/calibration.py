@@ -47,7 +47,19 @@ import numpy as np
 from ._checks import _sample_rate
 from .units import G0
 
-__all__ = ["FERRARIS_PARTS", "TriadCalibration", "ferraris_calibration"]
+__all__ = ["FERRARIS_PARTS", "TriadCalibration", "ferraris_calibration",
+           "ferraris_plausibility", "MIN_GRAVITY_SNR", "MAX_AXIS_ANGLE_DEG"]
+
+#: Fewest times the up-minus-down difference of the accelerometer readings (2 g along the axis)
+#: must exceed the noise of one reading in a static position. A MEMS accelerometer gives several
+#: hundred (the imucal session: 560-660); a gyro's readings there differ only by the Earth rate's
+#: projection, about 0.1-0.2 of its noise: that is what swapped accelerometer and gyro columns
+#: look like.
+MIN_GRAVITY_SNR = 10.0
+#: Largest angle, deg, between a sensitive axis and the body axis it is meant to measure. Real
+#: triads are aligned to a degree or better (the imucal session: within 2.3 deg); 15 deg leaves
+#: room for a poor mount and refuses what is not a calibration of these axes at all.
+MAX_AXIS_ANGLE_DEG = 15.0
 
 #: Names of the nine parts of a Ferraris session, as in imucal's annotated files: axis up
 #: (``_p``, the axis' accelerometer reads +g) and down (``_a``), then the rotation about each axis.
@@ -289,3 +301,45 @@ def ferraris_calibration(acc: dict, gyro: dict, fs: float, angle: float | dict,
     k_g = np.sqrt(np.sum(w**2, axis=1))
     r_g = w / k_g[:, None]
     return TriadCalibration(k_a, r_a, b_a, k_g, r_g, k_ga, b_g, float(g))
+
+
+def ferraris_plausibility(acc: dict, gyro: dict, cal: TriadCalibration) -> list[tuple[str, str]]:
+    """What in a Ferraris calibration contradicts the physics of the procedure.
+
+    Two laws any real session obeys, whatever the sensor's raw units: the accelerometer's
+    reading along an axis changes by 2 g between that axis up and down, far above the noise of
+    one reading (:data:`MIN_GRAVITY_SNR`), and each sensitive axis lies close to the body axis it
+    measures (:data:`MAX_AXIS_ANGLE_DEG`; the diagonal of ``R``, up to its sign).
+
+    Parameters
+    ----------
+    acc, gyro : dict of str to array_like, each shape (n_part, 3)
+        The session's raw readings per part, as given to :func:`ferraris_calibration`.
+    cal : TriadCalibration
+        Its result.
+
+    Returns
+    -------
+    list of (str, str)
+        ``(channel, why)`` per violation, channel ``acc_x`` ... ``gyro_z``; empty when plausible.
+    """
+    out = []
+    static = [f"{ax}_{s}" for ax in "xyz" for s in "pa"]
+    noise = math.sqrt(float(np.mean([np.var(np.asarray(acc[p], dtype=float), axis=0)
+                                     for p in static])))
+    for j, ax in enumerate("xyz"):
+        diff = np.linalg.norm(np.mean(acc[f"{ax}_p"], axis=0) - np.mean(acc[f"{ax}_a"], axis=0))
+        snr = diff / noise if noise > 0 else math.inf
+        if snr < MIN_GRAVITY_SNR:
+            out.append((f"acc_{ax}", f"the readings with body axis {ax} up and down differ by "
+                                     f"{snr:.2g} times the noise of one reading (gravity gives a "
+                                     f"real accelerometer hundreds; at least "
+                                     f"{MIN_GRAVITY_SNR:g} is needed)"))
+    for sensor, r in (("acc", cal.acc_misalignment), ("gyro", cal.gyro_misalignment)):
+        for j, ax in enumerate("xyz"):
+            angle = math.degrees(math.acos(min(1.0, abs(float(r[j, j])))))
+            if angle > MAX_AXIS_ANGLE_DEG:
+                out.append((f"{sensor}_{ax}", f"its sensitive axis comes out {angle:.0f} deg "
+                                              f"from body axis {ax} (at most "
+                                              f"{MAX_AXIS_ANGLE_DEG:g} deg is plausible)"))
+    return out

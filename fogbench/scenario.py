@@ -523,6 +523,8 @@ def load_scenario(path: str | Path, extra_sections: tuple[str, ...] = ()) -> Sce
     for sec in extra_sections:
         if top.has(sec):
             extra[sec] = top.get(sec, "any")
+    # every table a scenario may hold is listed when an unknown one is refused, present or not
+    top.used |= {"scenario", "table", "fog", "thermal", "runs", *extra_sections}
     top.done()
     return Scenario(path=file, name=name, description=description, fs=fs, table=table, fog=fog,
                     fog_preset=preset, fog_source=source, axes=axes, runs=tuple(runs),

@@ -175,6 +175,9 @@ def _worker_init(parent_pid: int) -> None:
     started the pool has gone, even by kill -9 (no ``finally`` of the parent runs then, and an
     idle worker would wait on its queue for ever, a busy one finish its replicate)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    # the pool was started with SIGINT and SIGTERM blocked (make_executor): SIGTERM must reach
+    # a worker again, it is how the parent stops one
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, (signal.SIGINT, signal.SIGTERM))
 
     def watch():
         while True:
@@ -187,6 +190,11 @@ def _worker_init(parent_pid: int) -> None:
                 os._exit(1)
 
     threading.Thread(target=watch, name="fogbench-parent-watch", daemon=True).start()
+
+
+def _started() -> int:
+    """A task that only starts a worker (the pool is started before the work)."""
+    return os.getpid()
 
 
 def _default_jobs() -> int:
@@ -376,16 +384,22 @@ def _recv_exact(sock: socket.socket, n: int, deadline: float, address: str) -> b
     return bytes(buf)
 
 
-def _raw_handshake(host: str, port: int, address: str, deadline: float) -> dict:
+def _raw_handshake(host: str, port: int, address: str, deadline: float,
+                   timeout_s: float) -> dict:
     """Read the handshake a Dask server sends on every new TCP connection, with bounded time
     and memory: 8 bytes of total length, then the frames' prelude (their count and lengths) and
     the frames, as ``distributed.comm.tcp`` writes them; decoded by ``distributed.protocol``
     only once the sizes are plausible. A peer that sends nothing (an HTTP server waits for a
     request) runs into the deadline; one that sends something else is refused at once."""
-    from distributed.protocol.core import loads
-
-    with socket.create_connection((host, port), timeout=max(deadline - time.monotonic(), 0.01)) \
-            as sock:
+    try:
+        sock = socket.create_connection((host, port),
+                                        timeout=max(deadline - time.monotonic(), 0.01))
+    except socket.timeout:
+        raise SchedulerUnreachableError(
+            f"scheduler {address}: no Dask scheduler answered within {timeout_s:g} s (the "
+            "connection was never accepted: nothing at that address, or a firewall); "
+            "check the address and that the scheduler is running") from None
+    with sock:
         head = _recv_exact(sock, 8, deadline, address)
         (total,) = struct.unpack("<Q", head)
         if not 16 <= total <= _MAX_HANDSHAKE_BYTES:
@@ -405,10 +419,19 @@ def _raw_handshake(host: str, port: int, address: str, deadline: float) -> dict:
                                      "Dask handshake; it is not a Dask scheduler")
         frames.append(body[pos:pos + nb])
         pos += nb
+    import logging
+
+    from distributed.protocol.core import loads
+
+    logger = logging.getLogger("distributed.protocol.core")
+    level = logger.level
+    logger.setLevel(logging.CRITICAL + 1)   # its own report of undecodable bytes: ours follows
     try:
         msg = loads(frames, deserialize=False)
     except Exception:  # noqa: BLE001 - whatever the peer sent, it is not a Dask handshake
         msg = None
+    finally:
+        logger.setLevel(level)
     if not isinstance(msg, dict) or "compression" not in msg:
         raise NotASchedulerError(f"scheduler {address}: the peer's first message is not a Dask "
                                  "handshake; it is not a Dask scheduler")
@@ -450,17 +473,27 @@ def probe_scheduler(scheduler: str, timeout_s: float = DEFAULT_CONNECT_TIMEOUT_S
     """
     import asyncio
 
+    import importlib.util
+
     address = _check_address(scheduler)
-    _import_dask(f"scheduler = {address!r}")
+    if importlib.util.find_spec("distributed") is None:  # without importing it (seconds)
+        _import_dask(f"scheduler = {address!r}")
     m = _ADDRESS.match(address)
     host, port = m.group("host").strip("[]"), int(m.group("port"))
     deadline = time.monotonic() + timeout_s
     try:
-        if m.group("scheme") == "tcp":
-            _raw_handshake(host, port, address, deadline)
+        if m.group("scheme") == "tcp":  # before distributed is imported: its import takes time
+            _raw_handshake(host, port, address, deadline, timeout_s)
+        from distributed.comm.core import CommClosedError
+
         left = max(deadline - time.monotonic(), 0.5)
-        ident = asyncio.run(asyncio.wait_for(_identity(address, left), left))
-    except NotASchedulerError:
+        try:
+            ident = asyncio.run(asyncio.wait_for(_identity(address, left), left))
+        except CommClosedError:
+            raise NotASchedulerError(
+                f"scheduler {address}: the peer closed the connection without answering Dask's "
+                "identity request; it is not a Dask scheduler") from None
+    except SchedulerUnreachableError:
         raise
     except (OSError, TimeoutError, asyncio.TimeoutError, socket.timeout) as exc:
         why = ("connection accepted, but no Dask handshake" if isinstance(
@@ -593,8 +626,25 @@ def make_executor(jobs: int | None = None, scheduler: str | None = None,
         return
     methods = multiprocessing.get_all_start_methods()
     ctx = multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
-    pool = cf.ProcessPoolExecutor(max_workers=n, mp_context=ctx, initializer=_worker_init,
-                                  initargs=(os.getpid(),))
+    # The worker processes (and the forkserver) are started with SIGINT and SIGTERM blocked:
+    # a Ctrl-C to the whole process group while a new interpreter imports its site would
+    # otherwise print "Fatal Python error: init_import_site" from it. A signal meanwhile stays
+    # pending in this process and is delivered when the pool is up.
+    from .signals import block, unblock
+
+    mask, pool = block(), None
+    try:
+        pool = cf.ProcessPoolExecutor(max_workers=n, mp_context=ctx, initializer=_worker_init,
+                                      initargs=(os.getpid(),))
+        cf.wait([pool.submit(_started) for _ in range(n)])
+        blocked, mask = mask, None
+        unblock(blocked)                # a pending Ctrl-C is raised here
+    except BaseException:
+        if mask is not None:
+            unblock(mask)
+        if pool is not None:
+            _stop_pool(pool)
+        raise
     try:
         yield pool
     except BaseException:

@@ -14,13 +14,12 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import signal
 import tempfile
 from pathlib import Path
 
 __all__ = ["MARKER", "OutDirError", "Terminated", "check_out_dir", "is_ours", "new_part_dir",
-           "discard_part", "replace_dir", "clean_stale", "install_signal_handlers", "check_signals",
-           "signal_received"]
+           "discard_part", "as_final", "replace_dir", "clean_stale", "install_signal_handlers",
+           "check_signals", "signal_received", "Claim"]
 
 MARKER = ".fogbench.json"
 KINDS = ("run", "simulation")
@@ -30,54 +29,17 @@ class OutDirError(ValueError):
     """An output path the bench must not or cannot write; the message names it."""
 
 
-class Terminated(BaseException):
-    """SIGTERM arrived: unwind (so temporary directories are removed), then exit 143."""
-
-
-#: The signals (SIGINT, SIGTERM) received since :func:`install_signal_handlers`. A signal's
-#: exception can be swallowed where Python ignores exceptions (a ``__del__``, a weakref or a
-#: matplotlib callback): the record lets :func:`check_signals` raise it again before anything is
-#: put in place, and the command line never exit 0 after a signal.
-_RECEIVED: list[int] = []
-
-
-def install_signal_handlers() -> None:
-    """Turn SIGTERM into :class:`Terminated` and SIGINT into ``KeyboardInterrupt``, so
-    ``finally`` blocks clean up, and record each signal (:func:`signal_received`)."""
-    _RECEIVED.clear()
-
-    def _term(signum, frame):
-        _RECEIVED.append(signum)
-        raise Terminated()
-
-    def _int(signum, frame):
-        _RECEIVED.append(signum)
-        raise KeyboardInterrupt()
-
-    signal.signal(signal.SIGTERM, _term)
-    signal.signal(signal.SIGINT, _int)
-
-
-def signal_received() -> int | None:
-    """The last signal received since the handlers were installed, or None."""
-    return _RECEIVED[-1] if _RECEIVED else None
-
-
-def check_signals() -> None:
-    """Raise the exception of a signal that arrived (even one whose exception was swallowed):
-    called before an output is put in place, so nothing lands after Ctrl-C or SIGTERM."""
-    sig = signal_received()
-    if sig == signal.SIGTERM:
-        raise Terminated()
-    if sig == signal.SIGINT:
-        raise KeyboardInterrupt()
+# The signals' handling lives in fogbench.signals (imported first by the command line); the
+# names stay importable from here.
+from .signals import Terminated, check as check_signals, install as install_signal_handlers  # noqa: E402
+from .signals import received as signal_received  # noqa: E402,F401
 
 
 def _marker(path: Path, kinds=KINDS) -> dict | None:
     """The marker of a folder fogbench wrote (one of ``kinds``), or None."""
     try:
         doc = json.loads((Path(path) / MARKER).read_text())
-    except (OSError, ValueError):
+    except (OSError, ValueError, RecursionError):
         return None
     return doc if isinstance(doc, dict) and doc.get("kind") in kinds else None
 
@@ -163,10 +125,24 @@ def new_part_dir(out: Path, kind: str, info: dict) -> Path:
     try:
         atomic_write_text(tmp / MARKER, json.dumps({"kind": kind, **info, "pid": os.getpid()},
                                                     indent=2))
+    except OSError as exc:
+        discard_part(tmp)
+        raise as_final(exc, tmp, out) from None
     except BaseException:
         discard_part(tmp)
         raise
     return tmp
+
+
+def as_final(exc: OSError, tmp: Path, out: Path) -> OSError:
+    """``exc`` naming the file as the user will look for it: a path inside the temporary
+    directory ``tmp`` becomes the same path inside ``out``."""
+    name = str(getattr(exc, "filename", "") or "")
+    if name.startswith(str(tmp)):
+        rest = name[len(str(tmp)):]
+        return type(exc)(exc.errno, exc.strerror, str(out) + ("" if rest == f"/{MARKER}"
+                                                               else rest))
+    return exc
 
 
 def discard_part(tmp: Path) -> None:
@@ -229,3 +205,76 @@ def _alive(pid) -> bool:
     except PermissionError:
         return True
     return True
+
+
+class Claim:
+    """A folder taken by this process: created if missing (with the missing folders above it,
+    removed again by :meth:`remove` when left empty) and locked by an exclusive ``flock`` on
+    the folder itself, which the kernel releases when the process ends, even after kill -9, and
+    this object when it is dropped. :meth:`acquire` raises ``busy(path)`` when another live
+    process holds it."""
+
+    def __init__(self, path: Path, busy):
+        self.path = Path(path)
+        self.busy = busy
+        self.fd: int | None = None
+        self.made: list[Path] = []
+        self._finalizer = None
+
+    def acquire(self) -> bool:
+        """Take the folder; True when this call created it."""
+        import weakref
+
+        created = False
+        q = self.path.parent
+        while not q.exists() and q != q.parent:
+            self.made.append(q)   # removed with the folder when left empty
+            q = q.parent
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            os.mkdir(self.path)
+            created = True
+        except FileExistsError:
+            pass
+        except OSError as exc:
+            raise OutDirError(f"{self.path}: cannot create it ({exc.strerror})") from None
+        try:
+            fd = os.open(self.path, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
+        except OSError as exc:
+            raise OutDirError(f"{self.path}: cannot open it ({exc.strerror})") from None
+        try:
+            import fcntl
+        except ImportError:  # pragma: no cover - not POSIX: no lock
+            fcntl = None
+        if fcntl is not None:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError:
+                os.close(fd)
+                if created:
+                    os.rmdir(self.path)
+                raise self.busy(self.path) from None
+        self.fd = fd
+        self._finalizer = weakref.finalize(self, os.close, fd)
+        return created
+
+    def release(self) -> None:
+        if self.fd is not None:
+            self._finalizer()  # closes the descriptor, which releases the flock
+            self.fd = None
+
+    def remove(self) -> None:
+        """Remove the folder and its contents, release it, and remove the folders made for it
+        if nothing else was put there."""
+        shutil.rmtree(self.path, ignore_errors=True)
+        self.release()
+        self.remove_made()
+
+    def remove_made(self) -> None:
+        for d in self.made:  # deepest first
+            try:
+                d.rmdir()
+            except OSError:
+                break
+        self.made = []
+

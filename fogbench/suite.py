@@ -13,7 +13,7 @@ from .executor import SerialExecutor, check_engine, engine_label, make_executor
 from .fmt import ci_text, fmt, md_table, p_better_text
 from .io import atomic_write_text
 from .montecarlo import MonteCarloError, ScenarioMC
-from .outdir import OutDirError, check_out_dir
+from .outdir import Claim, OutDirError, check_out_dir
 from .progress import Progress
 from .report import write_run_dir
 from .scenario import RUNNER_SECTIONS, ScenarioError, claim_name, load_plan, load_scenario
@@ -341,6 +341,25 @@ def run_suite(scenario_dir: Path, out: Path, check: bool = False, jobs: int | No
     for name in plans:
         check_out_dir(Path(out) / name, "run", flag=f"--out {out}: folder {name}")
     check_engine(jobs, scheduler, cluster, cluster_options)  # even when no pool is needed
+    # the reports folder is this suite's until it ends: a second suite into it is refused at
+    # once, before it could write its summary over this one's
+    claim = Claim(Path(out), lambda p: OutDirError(
+        f"--out {out}: another fogbench suite is writing into {p}; wait for it or give "
+        "another --out"))
+    created = claim.acquire()
+    try:
+        return _suite_body(plans, chosen, first_file, results, out, readme, check, jobs,
+                           recording, quiet, replicates, method_seeds, scheduler, cluster,
+                           cluster_options, resume)
+    finally:
+        claim.release()
+        if created and not any(Path(out).iterdir()):
+            claim.remove()      # nothing was written: no empty folder left behind
+
+
+def _suite_body(plans, chosen, first_file, results, out, readme, check, jobs, recording,
+                quiet, replicates, method_seeds, scheduler, cluster, cluster_options,
+                resume) -> int:
     t0 = time.monotonic()
     mcs: dict = {}
     for p in chosen:

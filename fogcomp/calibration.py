@@ -201,6 +201,15 @@ class TriadCalibration:
         missing = [k for k in keys if k not in doc]
         if missing:
             raise ValueError(f"{source}: missing key(s) {missing}")
+        for k in keys:  # numbers, or (nested) lists of numbers: never a text read as one
+            v = doc[k]
+            flat = v if isinstance(v, list) else [v]
+            while any(isinstance(x, list) for x in flat):
+                flat = [y for x in flat for y in (x if isinstance(x, list) else [x])]
+            if not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in flat):
+                raise ValueError(f"{source}: key {k!r} must hold numbers, got {v!r}")
+        if not (math.isfinite(doc["g_mps2"]) and doc["g_mps2"] > 0):
+            raise ValueError(f"{source}: key 'g_mps2' must be a positive gravity in m/s^2")
         try:
             return cls(**{attr: doc[k] for k, attr in keys.items()})
         except ValueError as exc:

@@ -2,10 +2,17 @@
 
 from __future__ import annotations
 
-import argparse
-import os
-import sys
-from pathlib import Path
+# The signals' handlers before any other import: Ctrl-C or SIGTERM during the imports ends with
+# the one line too (fogbench.signals imports only signal and sys).
+from . import signals as _signals
+
+if __name__ in ("__main__", "fogbench.cli"):
+    _signals.install()
+
+import argparse  # noqa: E402
+import os  # noqa: E402
+import sys  # noqa: E402
+from pathlib import Path  # noqa: E402
 
 # One BLAS thread per process: the bench parallelises over processes (replicates, scenarios);
 # threaded BLAS on top of that made the network fits 3-6x slower on a 2-core machine.
@@ -19,7 +26,7 @@ def _cmd_simulate(args) -> int:
     from sim.rig import simulate_run
 
     from .io import versions, write_manifest, write_run
-    from .outdir import check_out_dir, discard_part, new_part_dir, replace_dir
+    from .outdir import as_final, check_out_dir, discard_part, new_part_dir, replace_dir
     from .progress import Progress
     from .scenario import RUNNER_SECTIONS, load_plan, load_scenario
 
@@ -47,6 +54,9 @@ def _cmd_simulate(args) -> int:
             names.append(run.name)
         write_manifest(tmp, scenario, names)
         replace_dir(tmp, out, "simulation")
+    except OSError as exc:
+        discard_part(tmp)
+        raise as_final(exc, tmp, out) from None
     except BaseException:
         discard_part(tmp)
         raise
@@ -226,7 +236,7 @@ def _cmd_view(args) -> int:
 def _cmd_bench(args) -> int:
     from .bench import main as bench_main
 
-    return bench_main(seconds=args.seconds, repeats=args.repeats)
+    return bench_main(seconds=args.seconds, repeats=args.repeats, noise_seeds=args.noise_seeds)
 
 
 
@@ -323,6 +333,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="simulated seconds per measurement, 1 to 86400 (default 600)")
     b.add_argument("--repeats", type=_number(int, 1, hi=1000), default=5,
                    help="repeats; medians are quoted (default 5)")
+    b.add_argument("--noise-seeds", type=_number(int, 1, hi=1000), default=20,
+                   help="records per case of the noise identifier's table (default 20)")
     b.set_defaults(func=_cmd_bench)
     from .reallog import add_commands
 
@@ -350,10 +362,9 @@ def _os_error_text(exc: OSError) -> str:
 
 
 def main(argv=None) -> int:
-    # The handlers first: a signal during the imports below ends with the one line too.
-    from .outdir import Terminated, install_signal_handlers, signal_received
+    from .signals import Terminated
 
-    install_signal_handlers()
+    _signals.install()
     import signal as _signal
 
     try:
@@ -366,6 +377,10 @@ def main(argv=None) -> int:
     except FileNotFoundError as exc:
         _error_line(exc, _os_error_text(exc))
         code = 2
+    except RecursionError:  # a JSON or TOML input nested thousands of levels deep
+        print("fogbench: error: an input file is nested too deeply to be read (thousands of "
+              "levels of brackets); it is not a file fogbench writes or reads", file=sys.stderr)
+        code = 2
     except BrokenPipeError:  # `fogbench allan ... | head`: the reader left; not an error of ours
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141
@@ -376,8 +391,14 @@ def main(argv=None) -> int:
         code = None
     except Terminated:
         code = None
-    # a signal whose exception was swallowed on the way (in a callback) still ends the command
-    sig = signal_received()
+    # The work is over: a signal from now on stays pending (and is answered here, not by a
+    # silent death while the interpreter shuts down); one that arrived on the way, even one
+    # whose exception was swallowed in a callback, still ends the command.
+    old_mask = _signals.block()
+    sig = _signals.received() or _signals.pending()
+    _signals.consume()
+    if argv is not None:  # called in a process that goes on (tests, scripts): as it was
+        _signals.unblock(old_mask)
     if sig is not None or code is None:
         term = sig == _signal.SIGTERM
         print(_TERMINATED if term else _INTERRUPTED, file=sys.stderr)

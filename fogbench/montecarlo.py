@@ -26,14 +26,13 @@ import os
 import shutil
 import threading
 import time
-import weakref
 from pathlib import Path
 
 import numpy as np
 
 from . import stats as S
 from .io import atomic_write_text, json_ready, versions
-from .outdir import MARKER, OutDirError, _marker
+from .outdir import MARKER, Claim, OutDirError, _marker
 
 __all__ = ["MonteCarloError", "replicate_task", "replicate_doc", "aggregate", "WorkDir",
            "scenario_digest", "TIMING_METRICS"]
@@ -42,6 +41,7 @@ TIMING_METRICS = ("fit_time_s", "compensate_time_s", "compensate_samples_per_s")
 # per-replicate values kept for the distribution figure and the recording (mean over scored runs)
 SERIES_METRICS = ("rmse_dph", "std_dps", "bias_stability_100s_dph", "drift_rms_dph",
                   "coef_rms_error_dph", "arw_deg_rt_h", "bias_instability_dph", "rrw_dph_rt_h",
+                  "gm_sigma_dph", "gm_tau_s",
                   "improvement_rmse_pct", "improvement_bias_stability_pct",
                   "improvement_drift_pct", "improvement_std_pct")
 
@@ -112,8 +112,7 @@ class WorkDir:
                          "scenario_file": str(sc.path), "scenario_sha256": scenario_digest(sc.text),
                          "fogbench": versions().get("fogbench"), "method_seeds": method_seeds,
                          "methods": sorted(methods) if methods else None}
-        self._lock_fd: int | None = None
-        self._made: list[Path] = []
+        self._claim = Claim(self.path, self._busy)
 
     def _mismatch(self, found: dict, where: Path) -> str | None:
         for key, what in (("scenario_sha256", "another scenario file (or an edited one)"),
@@ -125,49 +124,14 @@ class WorkDir:
                         "without --resume to start afresh")
         return None
 
-    def _claim(self) -> bool:
-        """Take the folder for this process (created if missing); True when it was created.
-        Refused when another live process holds it."""
-        created = False
-        q = self.path.parent
-        while not q.exists() and q != q.parent:
-            self._made.append(q)   # folders made for it, removed with it if left empty
-            q = q.parent
-        try:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
-            os.mkdir(self.path)
-            created = True
-        except FileExistsError:
-            pass
-        except OSError as exc:
-            raise OutDirError(f"{self.path}: cannot create it ({exc.strerror})") from None
-        try:
-            fd = os.open(self.path, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
-        except OSError as exc:
-            raise OutDirError(f"{self.path}: cannot open it ({exc.strerror})") from None
-        try:
-            import fcntl
-        except ImportError:  # pragma: no cover - not POSIX: the marker's pid is the only claim
-            self._lock_fd = fd
-            self._finalizer = weakref.finalize(self, os.close, fd)
-            return created
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            os.close(fd)
-            found = _marker(self.path, kinds=("replicates",)) or {}
-            raise MonteCarloError(f"{self.path} is being filled by another fogbench process"
-                                  + (f" (pid {found['pid']})" if found.get("pid") else "")
-                                  + "; wait for it or give another --out") from None
-        self._lock_fd = fd
-        # the claim goes with this object too (a dropped WorkDir releases its folder)
-        self._finalizer = weakref.finalize(self, os.close, fd)
-        return created
+    def _busy(self, path):
+        found = _marker(path, kinds=("replicates",)) or {}
+        return MonteCarloError(f"{path} is being filled by another fogbench process"
+                               + (f" (pid {found['pid']})" if found.get("pid") else "")
+                               + "; wait for it or give another --out")
 
     def release(self) -> None:
-        if self._lock_fd is not None:
-            self._finalizer()  # closes the descriptor, which releases the flock
-            self._lock_fd = None
+        self._claim.release()
 
     def open(self, resume: bool) -> dict[int, dict]:
         """Claim the folder and check it; return the completed replicates (empty unless
@@ -183,7 +147,7 @@ class WorkDir:
                 and not os.listdir(self.path)):
             raise OutDirError(f"{self.path} exists and is not a fogbench replicates folder; it "
                               "was left untouched. Move it away or give another --out")
-        created = self._claim()
+        created = self._claim.acquire()
         try:
             done = self._open(resume)
             self._write_marker()
@@ -272,14 +236,7 @@ class WorkDir:
         atomic_write_text(dest / "identity.json", json.dumps(self.identity, indent=2))
 
     def remove(self) -> None:
-        shutil.rmtree(self.path, ignore_errors=True)
-        self.release()
-        for d in self._made:  # deepest first; only if nothing else was put there
-            try:
-                d.rmdir()
-            except OSError:
-                break
-        self._made = []
+        self._claim.remove()
 
     def remove_if_empty(self) -> None:
         """After a failure before any replicate was stored: leave nothing behind."""
@@ -299,7 +256,7 @@ def _doc_sha256(doc: dict) -> str:
 def _read_json(path: Path):
     try:
         return json.loads(path.read_text())
-    except (OSError, ValueError):
+    except (OSError, ValueError, RecursionError):
         return None
 
 
@@ -603,6 +560,7 @@ class ScenarioMC:
         # whichever comes first
         self._stored: set = set()
         self._store_lock = threading.Lock()
+        self.store_error: OSError | None = None
         self._on_done = None
         self.res0 = None
         self.first_s = None
@@ -633,6 +591,8 @@ class ScenarioMC:
         replicate. ``on_done(ok)`` is called after each (e.g. a progress bar)."""
         self._on_done = on_done
         for r in self.todo:
+            if self.store_error is not None:   # a serial executor runs each task at submit
+                break
             fut = executor.submit(replicate_task, (self.path, self.digest, r, self.K,
                                                    self.methods, self.truths))
             self.futures[fut] = r
@@ -647,8 +607,17 @@ class ScenarioMC:
             exc = fut.exception()
             if exc is None:
                 doc = fut.result()
-                self.work.write(doc)
-                self.done[r] = doc
+                if self.store_error is None:
+                    try:
+                        self.work.write(doc)
+                    except OSError as err:
+                        # a full disk: no replicate can be kept, so none more is computed; the
+                        # error is raised by wait() (a done-callback cannot raise)
+                        self.store_error = err
+                        for f in self.futures:
+                            f.cancel()
+                    else:
+                        self.done[r] = doc
             elif isinstance(exc, Exception):  # a crashed replicate is a failure, not the end
                 self.failures.append({"replicate": r,
                                       "error": f"{type(exc).__name__}: {exc}"})
@@ -665,6 +634,8 @@ class ScenarioMC:
         self.res0 = run_scenario(self.path, progress=say, methods=self.methods,
                                  method_seeds=self.K, truths=dict(self.truths))
         self.first_s = time.perf_counter() - t0 + self.truth_s
+        if self.store_error is not None:
+            raise self.store_error
         doc = replicate_doc(self.res0, self.first_s)
         if 0 in self.done and _digest_doc(self.done[0]) != _digest_doc(doc):
             raise MonteCarloError(f"--resume: replicate 0 of {self.sc.name} does not reproduce "
@@ -685,6 +656,8 @@ class ScenarioMC:
             # a future is done before its done-callbacks have run (in the pool's thread):
             # store it here if the callback has not yet, so that no replicate is left out
             self._store(fut, self._on_done)
+        if self.store_error is not None:
+            raise self.store_error
 
     def kept(self) -> list[int]:
         """The replicates this run reports: 0 .. R-1 (a resumed folder may hold more)."""

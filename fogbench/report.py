@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import io
 import math
-import shutil
 from pathlib import Path
 
 import matplotlib
@@ -24,7 +23,7 @@ from fogcomp.units import DPH, DPS  # noqa: E402
 from .fmt import (KEY_METRICS, ci_text, decimation, fmt, md_table,  # noqa: E402
                   metrics_table, p_better_text)
 from .io import atomic_write_bytes, atomic_write_text, run_arrays, versions  # noqa: E402
-from .outdir import check_out_dir, discard_part, new_part_dir, replace_dir  # noqa: E402
+from .outdir import as_final, check_out_dir, discard_part, new_part_dir, replace_dir  # noqa: E402
 from .runner import ScenarioResult, TERM_NAMES, thermal_segments, write_metrics  # noqa: E402
 
 __all__ = ["write_run_dir", "dwells", "dwell_means", "raw_segment_stability"]
@@ -776,10 +775,7 @@ def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_d
             work.remove()  # only now: until the run directory is in place it is the only copy
     except OSError as exc:
         discard_part(tmp)
-        name = str(getattr(exc, "filename", "") or "")
-        if name.startswith(str(tmp)):  # name the file as the user will look for it
-            raise type(exc)(exc.errno, exc.strerror, str(out) + name[len(str(tmp)):]) from None
-        raise
+        raise as_final(exc, tmp, out) from None  # the file as the user will look for it
     except BaseException:
         discard_part(tmp)
         raise
@@ -950,7 +946,8 @@ def render_montecarlo(res: ScenarioResult, mc: dict, fig_names: dict) -> str:
                 for run in runs:
                     sm = mc["summary"].get(prot.name, {}).get(run, {}).get(pv.method, {}).get(
                         pv.metric)
-                    allan = pv.metric in ("arw_deg_rt_h", "bias_instability_dph", "rrw_dph_rt_h")
+                    allan = pv.metric in ("arw_deg_rt_h", "bias_instability_dph", "rrw_dph_rt_h",
+                                          "gm_sigma_dph", "gm_tau_s")
                     if sm and sm.get("n"):
                         ours = ci_text({**sm, "n_failed": 0}, pv.metric)
                         total = sm["n"] + (sm.get("n_failed") or 0)

@@ -5,7 +5,11 @@ Measured in one run, each ``repeats`` times, medians quoted:
    made beforehand (the reference);
 2. the rig's truth (``simulate_truth``: commands, rollout, per-sample averaging, Earth rate):
    physics steps per second and truth samples per second, and its ratio to (1);
-3. the FOG error model (``simulate_fog``, tactical preset, every term on): samples per second.
+3. the FOG error model (``simulate_fog``, tactical preset, every term on): samples per second;
+
+then the Allan deviation, the CSV writer, every method, the replicates, and the noise identifier
+(``fogbench.bench_noise``: its accuracy and coverage on records of known noise, and the time to
+identify 10^7 samples).
 """
 
 from __future__ import annotations
@@ -33,7 +37,7 @@ def _tactical_params():
     return params
 
 
-def main(seconds: float = 600.0, repeats: int = 5) -> int:
+def main(seconds: float = 600.0, repeats: int = 5, noise_seeds: int = 20) -> int:
     fs = 100.0
     cfg = TableConfig(radius=0.1)
     k, dt = substeps_for(fs, cfg.physics_dt)
@@ -92,6 +96,10 @@ def main(seconds: float = 600.0, repeats: int = 5) -> int:
     bench_methods(repeats=min(repeats, 3))
     print()
     bench_replicates()
+    from .bench_noise import run as bench_noise
+
+    print()
+    bench_noise(seeds=noise_seeds)
     return 0
 
 

@@ -202,6 +202,10 @@ def _parse_mapping(items) -> dict:
             ch, src, unit = m.group(1), m.group(2), m.group(3).lower()
             if ch in out:
                 raise LogError(f"--column: channel {ch!r} is mapped twice")
+            other = next((c for c, (s_, _) in out.items() if s_ == src), None)
+            if other is not None:
+                raise LogError(f"--column: the file column {src!r} is mapped to two channels, "
+                               f"{other} and {ch}; each channel needs its own column")
             out[ch] = (src, unit)
     return out
 
@@ -299,9 +303,19 @@ def _read_frame(path):
     if p.is_symlink() and not p.exists():
         raise LogError(f"{path}: is a symbolic link that leads to no file (a loop, or its "
                        "target is missing)")
+    if p.exists() and not p.is_file():
+        raise LogError(f"{path}: not a regular file (a pipe, device or socket); give a CSV "
+                       "file")
     if not p.is_file():
         raise LogError(f"{path}: file not found")
     raw = _file_bytes(p)
+    try:
+        raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw.count(b"\n", 0, exc.start) + 1
+        col = exc.start - (raw.rfind(b"\n", 0, exc.start) + 1) + 1
+        raise LogError(f"{path}: line {line}, column {col}: not UTF-8 text (byte "
+                       f"0x{raw[exc.start]:02x}); save the file as UTF-8") from None
     skip = _leading_comments(raw)
     try:
         # The header as written: pandas renames a repeated name 'a' to 'a.1' in the frame.
@@ -531,11 +545,31 @@ def read_log(path, *, mapping=None, channels=None, fs=None, gaps: str = "refuse"
                sources=sources, segments=segments)
 
 
-def read_curve(path, ci: float | None = None):
+def _comment_fields(path) -> dict:
+    """``key=value`` pairs of the comment lines (``#``) at the top of a file, separated by
+    ``;`` (``# sensor=LN200; sample_rate_hz=400; n_samples=8640000``)."""
+    raw = _file_bytes(Path(path))
+    out = {}
+    for line in raw[:65536].decode("utf-8", "replace").splitlines():
+        if not line.startswith("#"):
+            break
+        for part in line[1:].split(";"):
+            if "=" in part:
+                k, v = part.split("=", 1)
+                out[k.strip()] = v.strip()
+    return out
+
+
+def read_curve(path, ci: float | None = None, with_header: bool = False):
     """Read an Allan deviation curve: ``tau_s``, ``adev_<unit>``, optionally
     ``adev_ci_low_<unit>``/``adev_ci_high_<unit>`` (or ``adev_low_``/``adev_high_``) and an
     ``axis`` column. Returns ``{axis: (taus s, adev rad/s, low rad/s or None, high or None)}``
-    and the unit suffix."""
+    and the unit suffix (and, with ``with_header``, the ``key=value`` fields of its comment
+    lines)."""
+    if with_header:
+        header = _comment_fields(path)
+        curves, unit = read_curve(path, ci)
+        return curves, unit, header
     frame, first_line = _read_frame(path)
     if "tau_s" not in frame.columns:
         raise LogError(f"{path}: missing column 'tau_s'; columns: {', '.join(frame.columns)}")
@@ -858,140 +892,52 @@ class _Outputs:
 
 # ---------------------------------------------------------------------------------------------
 # allan
-_DS_UNITS = {"N": "deg/sqrt(h)", "B": "deg/h", "K": "deg/h/sqrt(h)", "Q": "arcsec",
-             "R": "deg/h/h"}
-
-
-def _pooled_curve(rate, segments, fs):
-    """Overlapping Allan deviation pooled over gap-free segments: the squared second differences
-    of every segment are summed and divided by their total number (each segment's own are
-    computed inside it); the EDF of independent segments add."""
-    from fogcomp.allan import oadev_details
-
-    longest = max(b - a for a, b in segments)
-    m_all = 2 ** np.arange(int(math.floor(math.log2((longest - 1) // 2))) + 1)
-    sums, counts = np.zeros(m_all.size), np.zeros(m_all.size)
-    pieces = []
-    for a, b in segments:
-        n = b - a
-        ok = m_all <= (n - 1) // 2
-        if not ok.any():
-            continue
-        d = oadev_details(rate[a:b], fs, taus=m_all[ok] / fs)
-        sums[ok] += d.adev**2 * d.n_terms
-        counts[ok] += d.n_terms
-        pieces.append((n, ok))
-    return np.sqrt(sums / counts), m_all, pieces
-
-
-def _allan_of(rate, log: Log, ci: float):
-    from fogcomp.allan import (AllanCI, allan_analysis, confidence_interval, edf_greenhall,
-                               identify_noise_terms)
-
-    if len(log.segments) == 1:
-        return allan_analysis(rate, log.fs, ci=ci)
-    adev, m_all, pieces = _pooled_curve(rate, log.segments, log.fs)
-    taus = m_all / log.fs
-    err = adev / np.sqrt(2.0 * np.maximum(sum(n for n, _ in pieces) / m_all - 1.0, 1.0))
-    alpha = identify_noise_terms(taus, adev, err).alpha(taus)
-    edf = np.zeros(m_all.size)
-    for n, ok in pieces:
-        for i in np.flatnonzero(ok):
-            edf[i] += edf_greenhall(int(alpha[i]), int(m_all[i]), n + 1)
-    low, high = confidence_interval(adev, edf, ci)
-    curve = AllanCI(taus=taus, adev=adev, low=low, high=high, edf=edf, alpha=alpha, ci=ci,
-                    m=m_all, n=sum(n for n, _ in pieces), fs=log.fs)
-    return curve, identify_noise_terms(taus, adev, adev_low=low, adev_high=high, ci=ci)
-
-
-def _fmt_term(term) -> str:
-    ds = term.to_datasheet()
-    key = next(k for k in ds if not k.endswith("_sigma") and k not in
-               ("status", "reason", "tau_range_s"))
-    v, s = ds[key], ds[f"{key}_sigma"]
-    if term.status == "identified":
-        return f"{v:.4g} +- {s:.2g}" if s is not None else f"{v:.4g}"
-    if term.status == "upper bound":
-        return f"< {v:.4g}"
-    return "-"
-
-
-def _table(rows) -> str:
-    head = ["column", "ARW deg/sqrt(h)", "BI deg/h", "RRW deg/h/sqrt(h)", "Q arcsec",
-            "ramp deg/h/h"]
-    body = [[name] + [_fmt_term(ident.terms[t]) for t in ("N", "B", "K", "Q", "R")]
-            for name, ident in rows]
-    widths = [max(len(r[i]) for r in [head] + body) for i in range(len(head))]
-    lines = ["  ".join(c.ljust(w) for c, w in zip(r, widths)) for r in [head] + body]
-    lines.insert(1, "  ".join("-" * w for w in widths))
-    return "\n".join(lines)
-
-
-#: Flicker (bias-instability) noise of coefficient B has a flat Allan deviation floor of
-#: sqrt(2 ln 2 / pi) B = 0.6643 B (IEEE Std 952-1997, annex C, eq. C.13).
-ALLAN_FLOOR = math.sqrt(2.0 * math.log(2.0) / math.pi)
-
-
-def _figure(title: str, curve, ident, interval_label: str):
-    """The Allan plot of one column (a matplotlib Figure): the curve, its interval, the fitted
-    model, and each term's asymptote: identified terms dashed, upper bounds dotted; B drawn at
-    its Allan floor 0.664 B and labelled so."""
-    import matplotlib
-
-    matplotlib.use("Agg")
+def _plot(path_tmp: str, title: str, curve: dict, model, interval_label: str) -> None:
     import matplotlib.pyplot as plt
 
-    from fogcomp.allan import _BASIS, NOISE_TERMS
+    from .noise_report import figure
 
-    dph = DEG / 3600.0
-    t = np.asarray(curve["taus"])
-    fig, ax = plt.subplots(figsize=(7, 5))
-    if curve.get("low") is not None:
-        lo = np.maximum(np.asarray(curve["low"]), 1e-300)
-        ax.fill_between(t, lo / dph, np.asarray(curve["high"]) / dph, color="C0", alpha=0.25,
-                        label=interval_label)
-    ax.loglog(t, np.asarray(curve["adev"]) / dph, "o-", color="C0", ms=3, label="Allan deviation")
-    tt = np.logspace(math.log10(t.min()), math.log10(t.max()), 200)
-    ax.loglog(tt, ident.model_adev(tt) / dph, "-", color="k", lw=1, label="fitted model")
-    slopes = {"Q": "-1", "N": "-1/2", "B": "0", "K": "+1/2", "R": "+1"}
-    for term in NOISE_TERMS:
-        nt = ident.terms[term]
-        if nt.status == "not identified":
-            continue
-        if term == "B":
-            y = np.full_like(tt, nt.value * ALLAN_FLOOR / dph)
-            name = f"Allan floor {ALLAN_FLOOR:.3f} B"
-        else:
-            y = np.sqrt(_BASIS[term](tt)) * nt.value / dph
-            name = term
-        bound = nt.status == "upper bound"
-        value = f"{'B = ' if term == 'B' else ''}{_fmt_term(nt)} {_DS_UNITS[term]}"
-        ax.loglog(tt, y, ":" if bound else "--", lw=1.2 if bound else 1,
-                  label=f"{name} (slope {slopes[term]}): {value}"
-                        + (" (upper bound)" if bound else ""))
-    ax.set_ylim(max(np.min(np.asarray(curve["adev"])) / dph / 5, 1e-12),
-                np.max(np.asarray(curve["adev"])) / dph * 3)
-    ax.set_xlabel("averaging time tau, s")
-    ax.set_ylabel("Allan deviation, deg/h")
-    ax.set_title(title)
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    return fig
-
-
-def _plot(path_tmp: str, title: str, curve, ident, interval_label: str) -> None:
-    import matplotlib.pyplot as plt
-
-    fig = _figure(title, curve, ident, interval_label)
+    fig = figure(title, curve["taus"], curve["adev"], curve["low"], curve["high"], model,
+                 interval_label)
     fig.savefig(path_tmp, format="png", dpi=110)
     plt.close(fig)
+
+
+def _curve_record(path, header: dict, fs, samples) -> tuple[float, int]:
+    """The sample rate and length of the record a given curve came from: ``--fs`` /
+    ``--samples``, else the curve file's first line (``# ...; sample_rate_hz=400;
+    n_samples=8640000; ...``, as the curves in shared/realdata carry them)."""
+    def number(key, kind):
+        v = header.get(key)
+        if v is None:
+            return None
+        try:
+            x = kind(float(v)) if kind is int else float(v)
+        except ValueError:
+            raise LogError(f"{path}: line 1: {key}={v!r} is not a number") from None
+        return x
+
+    fs = fs if fs is not None else number("sample_rate_hz", float)
+    samples = samples if samples is not None else number("n_samples", int)
+    if fs is None or samples is None:
+        raise LogError(f"{path}: the record the curve was computed from is unknown: give --fs "
+                       "HZ and --samples N (its sample rate and number of samples: the "
+                       "identifier's covariance of the curve's points depends on them), or "
+                       "write them in its first line as '# sample_rate_hz=...; n_samples=...'")
+    if not (math.isfinite(fs) and fs > 0):
+        raise LogError(f"{path}: sample rate {_fmt_number(fs)} Hz: expected a positive number")
+    if samples < 8:
+        raise LogError(f"{path}: {samples} samples: expected at least 8")
+    return float(fs), int(samples)
 
 
 def _allan_folder(out: _Outputs, args, names) -> dict | None:
     """Check ``--out DIR`` for allan.json and one PNG per name (before any work)."""
     if not args.out:
         return None
+    if ".." in Path(args.out).parts:
+        raise LogError(f"--out {args.out!r}: a path through '..' is refused; name the folder "
+                       "directly")
     protect = [p for p in (args.log, args.curve) if p]
     return out.folder(Path(args.out), protect, marker="allan.json", recognise=_is_allan_json,
                       members=[(f"allan_{n}.png", lambda q: _starts_with(q, b"\x89PNG"))
@@ -999,30 +945,45 @@ def _allan_folder(out: _Outputs, args, names) -> dict | None:
 
 
 def _cmd_allan(args) -> int:
-    from fogcomp.allan import ONE_SIGMA_CI, identify_noise_terms
+    from fogcomp.allan import ONE_SIGMA_CI, allan_analysis
+    from fogcomp.noise import identify_noise_model, parse_model
 
     ci = ONE_SIGMA_CI if args.ci is None else args.ci
     if not (0 < ci < 1):
         raise LogError(f"--ci: expected a probability between 0 and 1, got {_fmt_number(ci)}")
+    if args.model is not None:
+        try:
+            parse_model(args.model)
+        except ValueError as exc:
+            raise LogError(f"--model: {exc}") from None
+    for flag, v in (("--samples", args.samples),):
+        if v is not None and not args.curve:
+            raise LogError(f"{flag}: only with --curve (a log's length is its own)")
     out = _Outputs(args.overwrite, "allan")
     _allan_folder(out, args, [])            # --out: a folder, placeable, not someone else's
-    results = []          # (name, curve dict, ident, extra json)
+    results = []          # (name, curve dict, model, extra json)
     summary = None
     if args.curve:
         if args.log is not None:
             raise LogError("allan: give either LOG.csv or --curve CURVE.csv, not both")
-        curves, unit = read_curve(args.curve, args.curve_ci)
+        curves, unit, header = read_curve(args.curve, args.curve_ci, with_header=True)
+        fs, samples = _curve_record(args.curve, header, args.fs, args.samples)
         targets = _allan_folder(out, args, list(curves))
         src = args.curve
         for ax, (t, a, lo, hi) in curves.items():
             try:
-                ident = identify_noise_terms(t, a, adev_low=lo, adev_high=hi,
-                                             ci=args.curve_ci if lo is not None else 0.95)
+                model = identify_noise_model(t, a**2, fs, samples, model=args.model, ci=ci)
             except ValueError as exc:
                 raise LogError(f"{args.curve}: axis {ax!r}: {exc}") from None
-            results.append((ax, {"taus": t, "adev": a, "low": lo, "high": hi}, ident, {}))
+            extra = {}
+            if lo is not None:  # where the model lies inside the interval the curve came with
+                m_adev = model.model_adev(t)
+                inside = (m_adev >= lo) & (m_adev <= hi)
+                extra["model_inside_given_interval"] = [bool(x) for x in inside]
+            results.append((ax, {"taus": t, "adev": a, "low": lo, "high": hi}, model, extra))
         label = f"{args.curve_ci:.0%} interval (given)" if args.curve_ci else ""
-        meta = {"curve_file": str(args.curve), "adev_unit_in_file": unit}
+        meta = {"curve_file": str(args.curve), "adev_unit_in_file": unit, "fs_hz": fs,
+                "n_samples": samples, "ci": ci}
     else:
         if args.log is None:
             raise LogError("allan: give LOG.csv (or --curve CURVE.csv)")
@@ -1053,15 +1014,16 @@ def _cmd_allan(args) -> int:
         src = args.log
         summary = log.describe()
         for ch in chans:
-            curve, ident = _allan_of(log.channels[ch], log, ci)
+            curve, model = allan_analysis(log.channels[ch], log.fs, ci=ci, model=args.model,
+                                          segments=log.segments)
             results.append((f"{ch}_{log.units[ch]}", {
                 "taus": curve.taus, "adev": curve.adev, "low": curve.low, "high": curve.high},
-                ident, {"edf": curve.edf.tolist(), "noise_alpha": curve.alpha.tolist()}))
+                model, {"edf": curve.edf.tolist(), "noise_alpha": curve.alpha.tolist()}))
         label = f"{ci:.1%} interval (EDF)"
         meta = {"log_file": str(args.log), "fs_hz": log.fs, "n_samples": log.n,
                 "duration_s": log.n / log.fs,
                 "segments": [[a, b] for a, b in log.segments], "ci": ci}
-    doc = {"format": "fogbench-allan", "version": 1, **meta}
+    doc = {"format": "fogbench-allan", "version": 2, **meta}
     doc["columns"] = {}
     dph = DEG / 3600.0
     for name, curve, ident, extra in results:
@@ -1071,7 +1033,10 @@ def _cmd_allan(args) -> int:
             entry["adev_low_dph"] = [float(x / dph) for x in curve["low"]]
             entry["adev_high_dph"] = [float(x / dph) for x in curve["high"]]
         entry.update(extra)
-        entry["noise"] = ident.to_datasheet()
+        from .noise_report import model_json
+
+        entry["model_adev_dph"] = [float(x / dph) for x in ident.model_adev(curve["taus"])]
+        entry["noise"] = model_json(ident)
         doc["columns"][name] = entry
     try:
         if targets is not None:
@@ -1085,7 +1050,12 @@ def _cmd_allan(args) -> int:
         out.discard()
     if summary:
         print(summary)
-    print(_table([(name, ident) for name, _, ident, _ in results]))
+    from .noise_report import notes, table
+
+    rows = [(name, ident) for name, _, ident, _ in results]
+    print(table(rows))
+    for line in notes(rows):
+        print(line)
     if targets is not None:
         print(f"wrote {targets['allan.json']} and {len(results)} figure(s) in {args.out}")
     return 0
@@ -1156,6 +1126,9 @@ def _cmd_calibrate(args) -> int:
     _check_calibrate_flags(args)
     out = _Outputs(args.overwrite, "calibrate")
     model_path = Path(args.out)
+    if model_path.name in ("", ".", "..") or ".." in model_path.parts:
+        raise LogError(f"--out {args.out!r}: name the model file (e.g. --out models/kal), not "
+                       "a folder; a path through '..' is refused")
     if model_path.suffix == ".json":
         model_path = model_path.with_suffix("")
     manifest = model_path.with_name(model_path.name + ".json")
@@ -1413,10 +1386,15 @@ def _load_manifest(path) -> tuple[dict, Path]:
         p = p.with_name(p.name + ".json")
     if not p.is_file():
         raise LogError(f"{p}: model file not found (written by fogbench calibrate --out)")
+    def no_constant(name):
+        raise ValueError(f"{name} is not a number JSON allows")
+
     try:
-        doc = json.loads(p.read_text(encoding="utf-8"))
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise _model_error(p, f"not valid JSON ({exc})") from None
+        doc = json.loads(p.read_text(encoding="utf-8"), parse_constant=no_constant)
+    except RecursionError:
+        raise _model_error(p, "not a model file (JSON nested too deeply)") from None
+    except ValueError as exc:  # JSON syntax, UTF-8, NaN / Infinity, integers of 4300 digits
+        raise _model_error(p, f"not valid JSON ({str(exc).splitlines()[0]})") from None
     if not isinstance(doc, dict) or doc.get("format") not in ("fogbench-log-model",
                                                               "fogbench-triad-model"):
         raise _model_error(p, "key 'format' must be 'fogbench-log-model' or "
@@ -1431,6 +1409,9 @@ def _load_manifest(path) -> tuple[dict, Path]:
     _key(doc, "method", "str", p)
     _key(doc, "fs_hz", "fs", p)
     if doc["format"] == "fogbench-triad-model":
+        if doc["method"] != "ferraris":
+            raise _model_error(p, f"key 'method' of a triad calibration must be 'ferraris', "
+                                  f"got {doc['method']!r}")
         cols = _key(doc, "columns", "dict", p)
         for ch in [f"{k}_{a}" for k in ("acc", "gyro") for a in "xyz"]:
             entry = _key(cols, ch, "dict", p, "columns.")
@@ -1455,9 +1436,11 @@ def _load_manifest(path) -> tuple[dict, Path]:
                 raise _model_error(p, f"key 'axes.{ch}.unit': expected a rate unit "
                                       f"({', '.join(u for u, f in GYRO_UNITS.items() if f)}), "
                                       f"got {info['unit']!r}")
-            if Path(info["model"]).name != info["model"]:
-                raise _model_error(p, f"key 'axes.{ch}.model' must be a file name beside the "
-                                      f"model file, got {info['model']!r}")
+            if Path(info["model"]).name != info["model"] or \
+                    not info["model"].endswith(f".{ch}"):
+                raise _model_error(p, f"key 'axes.{ch}.model' must name the {ch} file beside "
+                                      f"the model file (ending in '.{ch}', as calibrate writes "
+                                      f"it), got {info['model']!r}")
     return doc, p
 
 
@@ -1722,11 +1705,16 @@ def add_commands(subparsers) -> None:
     a.add_argument("--columns", help="gyro channels to analyse, comma-separated (default all)")
     a.add_argument("--out", help="folder for allan.json and one PNG per axis")
     a.add_argument("--curve", help="identify the noise terms of a given curve instead "
-                   "(tau_s, adev_<unit>, optional adev_ci_low_/high_<unit>, optional axis)")
+                   "(tau_s, adev_<unit>, optional adev_ci_low_/high_<unit>, optional axis; its "
+                   "record's sample rate and length from --fs/--samples or its first line)")
     a.add_argument("--curve-ci", type=float,
                    help="probability content of the curve's interval columns (e.g. 0.95)")
     a.add_argument("--ci", type=float, help="probability content of the computed intervals "
                    "(default 0.683, one sigma)")
+    a.add_argument("--model", help="a stated noise model, e.g. 'N + B + K' or 'N + GM + GM' "
+                   "(terms Q, N, B, K, R, GM): fitted as stated, no selection")
+    a.add_argument("--samples", type=int, help="--curve: number of samples of the record the "
+                   "curve came from (default: its first line's n_samples=)")
     a.add_argument("--overwrite", action="store_true", help="replace the outputs of an earlier "
                    "fogbench allan in --out (recognised by its allan.json; nothing else)")
     _common(a)

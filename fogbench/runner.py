@@ -165,11 +165,11 @@ def score(out: np.ndarray, piece: Piece, raw_ref: dict | None = None) -> dict:
         m["drift_rms_dph"] = float(np.sqrt(np.mean(np.square(means)))) / DPH
     dur = out.size / piece.fs
     if dur >= 1000.0 and out.size >= 512 and piece.fs >= 1.0 and gaps.size == 0:
-        # noise identification (IEEE Std 952 terms) of the error against the truth
-        from fogcomp.allan import allan_report
-
-        ds = allan_report(err, piece.fs)[2].to_datasheet()
-        for k in ("arw_deg_rt_h", "bias_instability_dph", "rrw_dph_rt_h"):
+        # noise identification of the error against the truth: the one identifier
+        # (fogcomp.noise through fogcomp.metrics.noise_terms), the datasheet floor beside it
+        ds = M.noise_terms(err, piece.fs)
+        for k in ("arw_deg_rt_h", "bias_instability_dph", "rrw_dph_rt_h",
+                  "bias_instability_floor_dph", "gm_sigma_dph", "gm_tau_s"):
             if ds.get(k) is not None:
                 m[k] = ds[k]
     if dur >= 300.0 and gaps.size == 0:  # of one contiguous record, not of stitched dwells

@@ -551,6 +551,7 @@ def load_scenario(path: str | Path, extra_sections: tuple[str, ...] = ()) -> Sce
 METRIC_NAMES = {
     "std_dps", "std_dph", "rmse_dph", "rmse_dps", "bias_stability_100s_dph", "angle_error_final_deg",
     "angle_error_max_deg", "arw_deg_rt_h", "bias_instability_dph", "rrw_dph_rt_h",
+    "bias_instability_floor_dph", "gm_sigma_dph", "gm_tau_s",
     "fit_time_s", "compensate_time_s", "improvement_std_pct", "improvement_rmse_pct",
     "improvement_bias_stability_pct", "coef_rms_error_dph", "drift_rms_dph",
     "improvement_drift_pct", "mean_error_dph",

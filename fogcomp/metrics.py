@@ -21,10 +21,11 @@ import numpy as np
 from ._checks import _signal
 from scipy.signal import welch
 
-from .allan import identify_noise, oadev_details
+from .allan import oadev_details
 from .units import DEG, DPH, DPS
 
 __all__ = [
+    "noise_terms",
     "std",
     "smooth",
     "bias_stability",
@@ -39,7 +40,7 @@ __all__ = [
 ]
 
 _ALLAN_KEYS = ("arw_deg_rt_h", "bias_instability_dph", "rrw_dph_rt_h", "quantisation_arcsec",
-               "rate_ramp_dph_per_h", "bias_instability_tau_s")
+               "rate_ramp_dph_per_h", "bias_instability_floor_dph", "gm_sigma_dph", "gm_tau_s")
 
 #: :func:`summary` reports the Allan noise terms only for records at least this long, s.
 ALLAN_MIN_DURATION_S = 100.0
@@ -400,10 +401,11 @@ def summary(compensated, fs: float, truth=None) -> dict[str, float | None]:
         ``angle_error_max_deg``.
         When the record lasts at least ``ALLAN_MIN_DURATION_S`` (100 s) and holds at least
         ``ALLAN_MIN_SAMPLES`` (512) samples: ``arw_deg_rt_h``, ``bias_instability_dph``,
-        ``rrw_dph_rt_h``, ``quantisation_arcsec``, ``rate_ramp_dph_per_h`` and
-        ``bias_instability_tau_s`` from :func:`fogcomp.allan.identify_noise` on the octave Allan
-        curve with its error bars, None for a term that the curve does not show (all None for
-        an error that is exactly constant). Below 100 s the longest averaging time with a
+        ``rrw_dph_rt_h``, ``quantisation_arcsec``, ``rate_ramp_dph_per_h`` from
+        :func:`noise_terms` (the noise model identified by :mod:`fogcomp.noise`, None for a
+        term not identified) and ``bias_instability_floor_dph``, the IEEE Std 952 datasheet
+        reading beside it (the curve's minimum / 0.664); all None for an error that is exactly
+        constant. Below 100 s the longest averaging time with a
         usable error bar (about a ninth of the record) is about 10 s, too short to show the
         bias-instability floor of a FOG, and the whole fit would rest on a handful of points.
     """
@@ -433,9 +435,43 @@ def summary(compensated, fs: float, truth=None) -> dict[str, float | None]:
         out["angle_error_final_deg"] = ang["angle_error_final_rad"] / DEG
         out["angle_error_max_deg"] = ang["angle_error_max_rad"] / DEG
     if n / fs >= ALLAN_MIN_DURATION_S and n >= ALLAN_MIN_SAMPLES:
-        d = None if np.ptp(err) == 0 else oadev_details(err, fs)
-        if d is not None and np.all(d.adev > 0):
-            out.update(identify_noise(d.taus, d.adev, d.adev_err).to_datasheet())
-        else:                            # a constant error: no noise to identify
-            out.update({k: None for k in _ALLAN_KEYS})
+        out.update(noise_terms(err, fs))
+    return out
+
+
+def noise_terms(rate, fs: float) -> dict:
+    """The noise terms of a record in datasheet units, as every report of the bench states them.
+
+    The one identifier of the project (:func:`fogcomp.noise.identify_noise_model` on the octave
+    Allan variance, terms selected): ``arw_deg_rt_h``, ``bias_instability_dph``,
+    ``rrw_dph_rt_h``, ``quantisation_arcsec``, ``rate_ramp_dph_per_h`` (None where a term is not
+    identified), ``bias_instability_floor_dph``, the IEEE Std 952 datasheet reading (the
+    Allan deviation's minimum / 0.664) beside the fitted flicker coefficient, and
+    ``gm_sigma_dph``, ``gm_tau_s`` of the strongest identified Gauss-Markov term. All None for
+    a record that is exactly constant.
+
+    Parameters
+    ----------
+    rate : array_like, shape (n,)
+        Rate, rad/s (e.g. a compensated output minus the truth).
+    fs : float
+        Sample rate, Hz.
+    """
+    from .noise import identify_noise_model
+
+    x = _signal("rate", rate, min_len=8)
+    fs = _positive("fs", fs)
+    d = None if np.ptp(x) == 0 else oadev_details(x, fs)
+    if d is None or not np.all(d.adev > 0) or d.taus.shape[0] < 3:
+        return {k: None for k in _ALLAN_KEYS}
+    nm = identify_noise_model(d.taus, d.adev**2, fs, x.shape[0], record_length=False)
+    out = nm.datasheet_values()
+    fr = nm.floor_reading.get("value")
+    out["bias_instability_floor_dph"] = None if fr is None else float(fr / DPH)
+    gms = [t for t in nm.identified if t.term == "GM"]
+    if gms:  # the strongest identified Gauss-Markov term
+        g = max(gms, key=lambda t: t.value)
+        out["gm_sigma_dph"], out["gm_tau_s"] = float(g.value / DPH), float(g.tau)
+    else:
+        out["gm_sigma_dph"] = out["gm_tau_s"] = None
     return out

@@ -11,13 +11,13 @@ import pytest
 
 from fogcomp.allan import (
     ONE_SIGMA_CI,
+    allan_analysis,
     confidence_interval,
     edf_greenhall,
-    identify_noise,
-    identify_noise_terms,
     oadev_ci,
     oadev_details,
 )
+from fogcomp.noise import identify_noise_model
 
 allantools = pytest.importorskip("allantools")
 from allantools import ci as at_ci  # noqa: E402
@@ -106,43 +106,37 @@ def test_oadev_ci_identifies_white_noise_type():
 
 
 # ---------------------------------------------------------------------------------------------
-# identify_noise_terms
-def test_terms_agree_with_identify_noise_and_arw_uncertainty_is_honest():
-    # The values equal identify_noise's; the ARW sigma matches the scatter over realisations.
+# The identifier's intervals
+def test_arw_interval_is_honest_over_realisations():
+    # The stated sigma matches the scatter of the estimates over realisations, and the 68 %
+    # interval covers the configured value in about 68 % of them (40 records: 55-80 %).
     arw, fs, n = 1e-3, 100.0, 2**15
     rng = np.random.default_rng(9)
-    values, sigmas = [], []
+    values, sigmas, covered = [], [], 0
     for _ in range(40):
-        d = oadev_details(arw * math.sqrt(fs) * rng.standard_normal(n), fs)
-        new = identify_noise_terms(d.taus, d.adev, d.adev_err)
-        old = identify_noise(d.taus, d.adev, d.adev_err)
-        assert new.terms["N"].value == old.N
-        assert new.terms["N"].status == "identified"
-        values.append(new.terms["N"].value)
-        sigmas.append(new.terms["N"].sigma)
-    assert np.mean(values) == pytest.approx(arw, rel=0.02)
+        _, m = allan_analysis(arw * math.sqrt(fs) * rng.standard_normal(n), fs,
+                              record_length=False)
+        t = m.term("N")
+        assert t.status == "identified"
+        values.append(t.value)
+        sigmas.append(t.sigma)
+        covered += t.low <= arw <= t.high
+    assert np.mean(values) == pytest.approx(arw, rel=0.01)
     ratio = np.std(values) / np.mean(sigmas)
-    assert 0.4 < ratio < 2.0, ratio
+    assert 0.7 < ratio < 1.4, ratio
+    assert 22 <= covered <= 32, covered
 
 
-def test_not_identified_terms_say_why():
-    taus = np.logspace(-2, 3, 25)
-    adev = 1e-4 / np.sqrt(taus)
-    r = identify_noise_terms(taus, adev)
-    assert r.terms["N"].status == "identified"
-    for t in ("Q", "K", "R"):
-        assert r.terms[t].status == "not identified" and r.terms[t].value is None
-        assert "leading term" in r.terms[t].reason
-    assert r.terms["B"].status == "upper bound"
-    assert "no floor" in r.terms["B"].reason
-
-
-def test_interval_bounds_are_validated():
-    with pytest.raises(ValueError, match="adev_high: below adev_low"):
-        identify_noise_terms([1, 2, 4], [1, 1, 1], adev_low=[0.9, 1.1, 0.9],
-                             adev_high=[1.1, 1.0, 1.1])
-    with pytest.raises(ValueError, match="both bounds"):
-        identify_noise_terms([1, 2, 4], [1, 1, 1], adev_low=[0.9, 0.9, 0.9])
+def test_terms_not_identified_say_why():
+    fs, n = 100.0, 10**6
+    taus = 2 ** np.arange(19) / fs
+    m = identify_noise_model(taus, 1e-8 / taus, fs, n, record_length=False)
+    assert m.spec() == "N"
+    for t in ("Q", "B", "K", "R"):
+        term = m.term(t)
+        assert term.status in ("upper bound", "not identified") and term.reason, term
+        if term.status == "upper bound":
+            assert term.bound > 0 and "upper bound" in term.reason
 
 
 # ---------------------------------------------------------------------------------------------
@@ -168,37 +162,49 @@ def fog_curves():
     return out
 
 
-def test_fog_arw_in_readme_class_and_bias_instability_reported(fog_curves):
+#: sample rate (Hz) and samples of each curve's record (their files' first lines)
+RECORDS = {"kvh1750": (1000.0, 1_000_000), "ln200": (400.0, 8_640_000),
+           "imar": (400.0, 5_760_000)}
+
+
+@pytest.fixture(scope="module")
+def fog_models(fog_curves):
+    out = {}
     for (name, ax), (t, a, lo, hi) in fog_curves.items():
-        r = identify_noise_terms(t, a, adev_low=lo, adev_high=hi, ci=0.95)
-        n = r.terms["N"]
+        fs, n = RECORDS[name]
+        out[(name, ax)] = identify_noise_model(t, a**2, fs, n, record_length=False)
+    return out
+
+
+def test_fog_arw_in_readme_class_and_bias_instability_reported(fog_curves, fog_models):
+    for (name, ax), (t, a, lo, hi) in fog_curves.items():
+        r = fog_models[(name, ax)]
+        n = r.term("N")
         arw = n.value / DEG * 60.0
         _, arw_lo, arw_hi, _ = FOGS[name]
         assert n.status == "identified" and arw_lo <= arw <= arw_hi, (name, ax, arw)
         assert n.sigma / n.value < 0.05
-        # The -1/2 line read at tau = 1 s by hand (interpolating the curve) agrees to 10 %.
+        # The -1/2 line read at tau = 1 s by hand (interpolating the curve) agrees to 15 %
+        # (the reading also holds the flicker and quantisation there; the fit does not).
         read = np.exp(np.interp(0.0, np.log(t), np.log(a))) / DEG * 60.0
-        assert arw == pytest.approx(read, rel=0.10), (name, ax)
-        b = r.terms["B"]
+        assert arw == pytest.approx(read, rel=0.15), (name, ax)
+        b = r.term("B")
         assert b.status in ("identified", "upper bound"), (name, ax, b.reason)
-        if name == "kvh1750":                 # the KVH curve turns up inside its reliable part
-            assert b.status == "identified" and 0.03 < b.value / DEG * 3600 < 0.15
-        if b.status == "identified":
-            assert b.sigma > 0
-        else:
-            # an upper bound is at least the lowest reliable point / 0.664
-            assert b.value / DEG * 3600 > 0.01
+        # the IEEE 952 floor reading is reported beside the fit, and bounds it from above
+        fr = r.floor_reading
+        if b.status == "identified" and fr.get("value") is not None:
+            assert fr["value"] >= 0.9 * b.value, (name, ax)
 
 
-def test_fog_model_inside_confidence_bounds_where_terms_apply(fog_curves):
-    # "Where the terms apply": where the statistical 95 % bound is wider than the 5 % model
-    # mismatch the fit allows for (below that, at short taus, the curves show the sensors'
-    # output filtering and correlated noise, which the five-term model has no term for).
+def test_fog_model_inside_confidence_bounds_where_terms_apply(fog_curves, fog_models):
+    # "Where the terms apply": where the 95 % bound the source computed is wider than the
+    # model error the fit estimated for that curve (below that, at short taus, the curves show
+    # the sensors' output filtering and correlated noise, which the model has no term for).
     inside = total = 0
     for (name, ax), (t, a, lo, hi) in fog_curves.items():
-        r = identify_noise_terms(t, a, adev_low=lo, adev_high=hi, ci=0.95)
+        r = fog_models[(name, ax)]
         m = r.model_adev(t)
-        apply = (hi - a) / a > 0.05
+        apply = (hi - a) / a > r.model_error
         inside += int(np.sum((m >= lo) & (m <= hi) & apply))
         total += int(apply.sum())
     assert total > 60

@@ -350,7 +350,11 @@ def test_an_edited_sample_rate_is_refused_by_the_checksum_and_by_the_models_own(
     (lambda d: d.update(axes=[]), ["key 'axes' must be a table"]),
     (lambda d: d["axes"]["gyro_x"].pop("model"), ["missing key 'axes.gyro_x.model'"]),
     (lambda d: d["axes"]["gyro_x"].update(model="../../etc/passwd"),
-     ["'axes.gyro_x.model' must be a file name"]),
+     ["'axes.gyro_x.model' must name the gyro_x file"]),
+    # the axes' entries swapped, the checksum made valid again: each entry must name its axis
+    (lambda d: d["axes"].update(gyro_x=d["axes"]["gyro_z"], gyro_z=d["axes"]["gyro_x"]),
+     ["'axes.gyro_x.model' must name the gyro_x file", "'kal.gyro_z'"]),
+    (lambda d: d["axes"]["gyro_x"].update(unit=3), ["'axes.gyro_x.unit' must be a text"]),
     (lambda d: d.pop("sha256"), ["missing key 'sha256'"]),
     (lambda d: d.update(version=1), ["key 'version' is 1"]),
 ])
@@ -754,3 +758,126 @@ def test_an_unknown_top_level_table_lists_every_allowed_one(tiny):
     for table in ("bounds", "thermal", "paper", "claims", "montecarlo", "methods", "protocols",
                   "compensation", "scenario", "table", "fog", "runs"):
         assert f"'{table}'" in line, line
+
+
+# --- found by a second reader trying the fixes ----------------------------------------------
+@pytest.mark.parametrize("text, words", [
+    ('"fs_hz": NaN', ["kal.json", "not valid JSON", "NaN"]),
+    ('"fs_hz": 1' + "0" * 5000, ["kal.json", "not valid JSON"]),
+    ("[" * 100_000, ["kal.json"]),
+])
+def test_a_manifest_that_is_not_json_we_write_names_the_file(tmp_path, text, words):
+    log, m = _calibrated(tmp_path)
+    body = (m / "kal.json").read_text()
+    if text.startswith("["):
+        (m / "kal.json").write_text(text)
+    else:
+        (m / "kal.json").write_text(body.replace(f'"fs_hz": {json.loads(body)["fs_hz"]!r}',
+                                                 text))
+    _refused_compensate(tmp_path, m / "kal", log, *words)
+
+
+def test_deeply_nested_inputs_are_one_line(tiny, tmp_path, killed):
+    (killed / "r00001.json").write_text("[" * 100_000)
+    code, _, err = _resume(tiny, tmp_path)
+    assert code == 2 and "r00001.json" in one_error_line(err)
+    deep = tmp_path / "deep.toml"
+    deep.write_text(SMALL_SCENARIO.replace('preset = "tactical"',
+                                           'preset = "tactical"\nbias_dph = ' + "[" * 600
+                                           + "]" * 600))
+    code, _, err = run_cli("check", deep)
+    assert code == 2
+    one_error_line(err)
+
+
+def test_a_triad_calibration_with_a_text_for_a_number_is_refused(tmp_path):
+    from fogcomp.base import _canonical_sha256
+
+    good = _ferraris_csv(tmp_path / "good.csv")
+    assert run_cli("calibrate", "ferraris", good, *FERRARIS_ARGS, "--out", tmp_path / "c")[0] == 0
+    for change, words in ((lambda d: d["calibration"].update(g_mps2="9.81"),
+                           ["'g_mps2' must hold numbers"]),
+                          (lambda d: d.update(method="kalman"),
+                           ["'method' of a triad calibration must be 'ferraris'"])):
+        doc = json.loads((tmp_path / "c.json").read_text())
+        change(doc)
+        doc["sha256"] = _canonical_sha256(doc)
+        (tmp_path / "x.json").write_text(json.dumps(doc))
+        code, _, err = run_cli("compensate", tmp_path / "x", good, "--out", tmp_path / "o.csv",
+                               "--column", FERRARIS_ARGS[-1])
+        assert code == 2, err
+        line = one_error_line(err)
+        assert "x.json" in line and all(w in line for w in words), line
+
+
+def test_a_column_mapped_to_two_channels_is_refused(tmp_path):
+    good = _ferraris_csv(tmp_path / "good.csv")
+    code, _, err = run_cli("calibrate", "ferraris", good, "--fs", "100", "--angle-deg", "-360",
+                           "--column", "acc_x=acc_x:au,acc_y=acc_x:au,acc_z=acc_z:au,"
+                           "gyro_x=gyr_x:au,gyro_y=gyr_y:au,gyro_z=gyr_z:au",
+                           "--out", tmp_path / "c")
+    assert code == 2
+    assert "'acc_x' is mapped to two channels" in one_error_line(err)
+
+
+def test_a_pipe_and_a_late_bad_byte_are_named(tmp_path):
+    fifo = tmp_path / "log.csv"
+    os.mkfifo(fifo)
+    code, _, err = run_cli("allan", fifo)
+    assert code == 2 and "not a regular file" in one_error_line(err)
+    bad = tmp_path / "bad.csv"
+    rows = ["time_s,gyro_x_dps"] + [f"{i / 100:.2f},0.0{i % 10}" for i in range(300)]
+    data = ("\n".join(rows) + "\n").encode()
+    at = data.index(b"\n1.50,")
+    bad.write_bytes(data[:at + 4] + b"\xff" + data[at + 5:])
+    code, _, err = run_cli("allan", bad)
+    assert code == 2 and "line 152" in one_error_line(err) and "not UTF-8" in err
+
+
+@pytest.mark.parametrize("out", ["newdir/..", "a/../b"])
+def test_outputs_through_dot_dot_are_refused(tmp_path, out):
+    log = _static_log(tmp_path / "log.csv")
+    before = snapshot(tmp_path)
+    for args in (["allan", log, "--out", out], ["calibrate", "kalman", log, "--out", out]):
+        code, _, err = run_cli(*args, cwd=tmp_path)
+        assert code == 2 and "'..'" in one_error_line(err), err
+    code, _, err = run_cli("calibrate", "kalman", log, "--out", ".", cwd=tmp_path)
+    assert code == 2 and "name the model file" in one_error_line(err)
+    assert snapshot(tmp_path) == before
+
+
+def test_a_second_suite_into_the_same_reports_folder_is_refused_at_once(tmp_path):
+    if not Path("/proc").is_dir():
+        pytest.skip("needs /proc")
+    (tmp_path / "scn").mkdir()
+    (tmp_path / "scn" / "slow.toml").write_text(SLOW)
+    first = _start(["suite", "--scenarios", "scn", "--out", "rep", "--no-recording",
+                    "--jobs", "1"], tmp_path)
+    try:
+        _wait_for(lambda: (tmp_path / "rep" / ".tiny.replicates").is_dir(), 60,
+                  "the first suite's claim")
+        (tmp_path / "rep" / "README.md").exists() and pytest.fail("no summary yet")
+        code, out, err = _cli_process(["suite", "--scenarios", "scn", "--out", "rep",
+                                       "--no-recording"], tmp_path, timeout=60)
+        assert code == 2
+        assert "another fogbench suite is writing into" in one_error_line(err)
+        assert not (tmp_path / "rep" / "README.md").exists()   # nothing written over
+    finally:
+        os.killpg(first.pid, signal.SIGTERM)
+        first.communicate(timeout=60)
+
+
+def test_a_disk_filling_up_between_replicates_stops_the_run_with_one_line(tiny, tmp_path,
+                                                                          full_disk):
+    """The first replicate is stored, the disk then fills: the run stops at once with one line
+    naming the file it could not write (no traceback per replicate, no further replicates
+    computed), and says what it kept."""
+    tiny.write_text(SMALL_SCENARIO + "\n[montecarlo]\nreplicates = 40\n")
+    _fill(full_disk, 12_000)
+    code, out, err = _cli_process(["run", tiny, "--out", full_disk / "run", "--no-recording",
+                                   "--quiet", "--jobs", "1"], tmp_path)
+    assert code == 1, (out, err)
+    assert "Traceback" not in err and "exception calling callback" not in err, err
+    line = one_error_line(err)
+    assert "No space left on device (" in line and str(full_disk) in line, line
+    assert ".part" not in line

@@ -60,12 +60,20 @@ def test_allan_on_adis16405_reproduces_avar_and_identifies_terms(tmp_path, capsy
         lo, hi = np.array(col["adev_low_dph"]), np.array(col["adev_high_dph"])
         assert np.all(lo < col["adev_dph"]) and np.all(np.array(col["adev_dph"]) < hi)
         noise = col["noise"]
-        arw = noise["angle_random_walk"]["arw_deg_rt_h"]
-        bi = noise["bias_instability"]["bias_instability_dph"]
-        # README guide: ARW 2.3-2.6 deg/sqrt(h); BI about 27 (x) and 45 (y, z) deg/h, by hand.
+        terms = {t["term"]: t for t in noise["terms"]}
+        arw = terms["N"]["arw_deg_rt_h"]
+        # README guide: ARW 2.3-2.6 deg/sqrt(h); BI about 27 (x) and 45 (y, z) deg/h, read by
+        # hand at the curve's floor: the IEEE 952 floor reading reported beside the fit
         assert 2.2 <= arw <= 2.7, (axis, arw)
-        assert noise["bias_instability"]["status"] == "identified"
-        assert (20 <= bi <= 40) if axis == "x" else (35 <= bi <= 55), (axis, bi)
+        assert terms["N"]["arw_deg_rt_h_low"] < arw < terms["N"]["arw_deg_rt_h_high"]
+        b = terms["B"]
+        bi = b["bias_instability_dph"] if b["status"] == "identified" else \
+            b["bias_instability_dph_bound95"]
+        assert 20 <= bi <= 60, (axis, b)
+        reading = noise["floor_reading"]["bias_instability_dph"]
+        assert (20 <= reading <= 40) if axis == "x" else (35 <= reading <= 55), (axis, reading)
+        assert noise["fit"]["p_value"] > 0.01 and noise["filter"][0]["term"] == "N"
+        assert len(col["model_adev_dph"]) == len(col["tau_s"])
         assert (tmp_path / "a" / f"allan_gyro_{axis}_dps.png").stat().st_size > 10_000
     out = capsys.readouterr().out
     assert "ARW deg/sqrt(h)" in out and "gyro_z_dps" in out
@@ -77,9 +85,15 @@ def test_allan_curve_mode_on_fog_curves(tmp_path, capsys):
     code, err = run(["allan", "--curve", f, "--curve-ci", "0.95", "--out", tmp_path / "c"])
     assert code == 0, err
     doc = json.loads((tmp_path / "c" / "allan.json").read_text())
+    assert doc["fs_hz"] == 400.0 and doc["n_samples"] == 8_640_000   # from its first line
     for ax in "xyz":
-        arw = doc["columns"][ax]["noise"]["angle_random_walk"]["arw_deg_rt_h"]
+        terms = {t["term"]: t for t in doc["columns"][ax]["noise"]["terms"]}
+        arw = terms["N"]["arw_deg_rt_h"]
         assert 0.034 <= arw <= 0.048          # README: about 0.04 deg/sqrt(h) at tau = 1 s
+        # one flag per tau: the model inside the source's 95 % bounds (how often where the
+        # terms apply is test_allan_ci's check)
+        inside = doc["columns"][ax]["model_inside_given_interval"]
+        assert len(inside) == len(doc["columns"][ax]["tau_s"]) and any(inside)
     code, err = run(["allan", "--curve", f])
     assert code == 2 and "--curve-ci" in err
 
@@ -554,34 +568,36 @@ def test_compensate_says_a_column_comes_from_the_model(tmp_path):
 
 # ---------------------------------------------------------------------------------------------
 # The Allan figure
-def test_allan_figure_draws_the_floor_and_marks_upper_bounds():
+def test_allan_figure_draws_each_term_and_marks_upper_bounds():
     import matplotlib.pyplot as plt
 
-    from fogbench.reallog import _figure
-    from fogcomp.allan import identify_noise_terms
+    from fogbench.noise_report import figure
+    from fogcomp.noise import identify_noise_model
 
     floor = math.sqrt(2 * math.log(2) / math.pi)     # IEEE 952 C.13, flicker floor / B
-    t = 2.0 ** np.arange(16) / 100
+    fs, n = 100.0, 2**20
+    t = 2.0 ** np.arange(16) / fs
     n_, b_, k_ = 1e-5, 2e-6, 1e-7
     curves = {"floor": np.sqrt(n_**2 / t + (floor * b_)**2 + k_**2 * t / 3),
               "white": n_ / np.sqrt(t)}
+    dph = DEG / 3600
     for name, adev in curves.items():
-        ident = identify_noise_terms(t, adev, adev * 0.03)
-        fig = _figure(name, {"taus": t, "adev": adev, "low": None}, ident, "")
+        m = identify_noise_model(t, adev**2, fs, n, record_length=False)
+        fig = figure(name, t, adev, None, None, m, "")
         lines = {ln.get_label(): ln for ln in fig.axes[0].get_lines()}
-        b_line = [ln for lab, ln in lines.items() if "slope 0" in lab]
+        b_line = [ln for lab, ln in lines.items() if lab.startswith("B (slope 0)")]
         assert len(b_line) == 1
         label, ln = b_line[0].get_label(), b_line[0]
-        dph = DEG / 3600
-        np.testing.assert_allclose(ln.get_ydata() * dph, floor * ident.terms["B"].value,
-                                   rtol=1e-12)
-        assert label.startswith("Allan floor 0.664 B")
+        b = m.term("B")
         if name == "floor":
-            assert ident.terms["B"].status == "identified"
+            assert b.status == "identified" and b.value == pytest.approx(b_, rel=1e-3)
+            np.testing.assert_allclose(ln.get_ydata() * dph, floor * b.value, rtol=1e-12)
             assert ln.get_linestyle() == "--" and "upper bound" not in label
         else:
-            assert ident.terms["B"].status == "upper bound"
+            assert b.status == "upper bound"
+            np.testing.assert_allclose(ln.get_ydata() * dph, floor * b.bound, rtol=1e-12)
             assert ln.get_linestyle() == ":" and "upper bound" in label
+        assert any(lab.startswith("fitted model") for lab in lines)
         plt.close(fig)
 
 

@@ -181,7 +181,7 @@ def test_identify_noise_on_real_adis16405(adis):
 
 
 # ---------------------------------------------------------------------------------------------
-# identify_noise on synthetic noise with analytic Allan variance
+# the identifier on synthetic noise with analytic Allan variance
 FS = 100.0
 N_LONG = 2**18          # 2621 s at 100 Hz
 

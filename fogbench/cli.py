@@ -131,28 +131,56 @@ def _cmd_run(args) -> int:
         lambda msg: print(f"[{name}] {msg}", file=sys.stderr, flush=True))
     mc = ScenarioMC(args.scenario, out, replicates=args.replicates,
                     method_seeds=args.method_seeds, methods=args.method, resume=args.resume)
+    mapper = None
+    if mc.plan.map is not None and not args.no_map:
+        from .maps import MapRun
+
+        try:
+            mapper = MapRun(args.scenario, out, mc, replicates=args.map_replicates,
+                            method_seeds=args.method_seeds, methods=args.method,
+                            resume=args.resume)
+        except BaseException:
+            mc.work.remove_if_empty()
+            raise
     if mc.dropped:
         print(f"fogbench: warning: --resume: {mc.work.path} holds {len(mc.dropped)} "
               f"replicate(s) beyond the {mc.R} asked for (r{mc.dropped[0]}..); the first "
               f"{mc.R} are used, the others are not kept", file=sys.stderr)
-    engine = _engine(args) if mc.todo else contextlib.nullcontext(SerialExecutor())
+    pool_needed = mc.todo or (mapper is not None and mapper.todo)
+    engine = _engine(args) if pool_needed else contextlib.nullcontext(SerialExecutor())
+    total = mc.R - len(mc.resumed) + (mapper.todo if mapper is not None else 0)
     try:
-        with engine as ex, Progress(mc.R - len(mc.resumed), f"{name}: replicates",
-                                    quiet=args.quiet or mc.R == 1) as bar:
-            mc.simulate_truths(say)
+        with engine as ex, Progress(total, f"{name}: replicates",
+                                    quiet=args.quiet or total == 1) as bar:
+            cache: dict = {}
+            mc.simulate_truths(say, cache=cache)
+            if mapper is not None:
+                mapper.simulate_truths(say, cache=cache)
+            advance = (lambda ok: bar.advance(failed=not ok))
             if isinstance(ex, SerialExecutor):  # replicate 0 first: figures early, bar moving
                 mc.run_first(say)
                 bar.advance()
-                mc.submit(ex, on_done=lambda ok: bar.advance(failed=not ok))
+                mc.submit(ex, on_done=advance)
+                if mapper is not None:
+                    mapper.submit(ex, on_done=advance)
             else:  # workers start on 1.. while this process computes 0 in full
-                mc.submit(ex, on_done=lambda ok: bar.advance(failed=not ok))
+                mc.submit(ex, on_done=advance)
+                if mapper is not None:
+                    mapper.submit(ex, on_done=advance)
                 mc.run_first(say)
                 bar.advance()
             mc.wait()
-        doc = mc.finish(_engine_label(args) if mc.todo else "this process")
+            if mapper is not None:
+                mapper.wait()
+        label = _engine_label(args) if pool_needed else "this process"
+        doc = mc.finish(label)
+        map_doc = mapper.finish(doc, label) if mapper is not None else None
         write_run_dir(mc.res0, out, recording=not args.no_recording,
-                      montecarlo=doc if mc.R > 1 else None, work=mc.work)
+                      montecarlo=doc if mc.R > 1 else None, work=mc.work, map_doc=map_doc,
+                      map_run=mapper)
     except BaseException as exc:
+        if mapper is not None:
+            mapper.release()
         mc.work.remove_if_empty()
         if mc.work.path.is_dir() and mc.done:
             kept = (f"{len(mc.done)} replicate(s) of {name} are kept in {mc.work.path}; run "
@@ -224,7 +252,8 @@ def _cmd_suite(args) -> int:
                      jobs=args.jobs, only_ci=args.ci, recording=not args.no_recording,
                      quiet=args.quiet, names=args.scenario, replicates=args.replicates,
                      method_seeds=args.method_seeds, scheduler=args.scheduler,
-                     cluster=args.cluster, cluster_options=opts, resume=args.resume)
+                     cluster=args.cluster, cluster_options=opts, resume=args.resume,
+                     no_map=args.no_map, map_replicates=args.map_replicates)
 
 
 def _cmd_view(args) -> int:
@@ -302,6 +331,11 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--resume", action="store_true",
                    help="keep the replicates a killed run left (same scenario file and fogbench "
                         "version) and compute only the rest")
+    r.add_argument("--no-map", action="store_true",
+                   help="leave out the scenario's claim map ([map]: the claims at other values "
+                        "of the keys the papers leave open)")
+    r.add_argument("--map-replicates", type=_number(int, 1, hi=10_000),
+                   help="replicates per point of the claim map (overrides [map] replicates)")
     r.set_defaults(func=_cmd_run)
 
     c = sub.add_parser("check", help="validate scenario files (nothing is simulated or written)")
@@ -322,6 +356,10 @@ def build_parser() -> argparse.ArgumentParser:
     _mc_flags(u)
     u.add_argument("--resume", action="store_true",
                    help="keep the replicates a killed suite left and compute only the rest")
+    u.add_argument("--no-map", action="store_true",
+                   help="leave out the scenarios' claim maps ([map])")
+    u.add_argument("--map-replicates", type=_number(int, 1, hi=10_000),
+                   help="replicates per point of every claim map (overrides [map] replicates)")
     u.set_defaults(func=_cmd_suite)
 
     v = sub.add_parser("view", help="open a run directory's recording in the Rerun viewer")

@@ -57,14 +57,16 @@ def scenario_digest(text: str) -> str:
 # ---------------------------------------------------------------------------------------------
 # One replicate (runs on a worker)
 def replicate_task(task: tuple) -> dict:
-    """Worker: ``(scenario path, replicate r, method_seeds K, method labels or None, truths)``
-    -> the replicate's metrics (:func:`replicate_doc`). ``truths`` (run name -> ``Truth``) is
-    the table's motion, simulated once by the main process and reused by every replicate."""
+    """Worker: ``(scenario path, digest, replicate r, method_seeds K, method labels or None,
+    truths, overrides)`` -> the replicate's metrics (:func:`replicate_doc`). ``truths`` (run
+    name -> ``Truth``) is the table's motion, simulated once by the main process and reused by
+    every replicate; ``overrides`` the claim-map point's values (or None)."""
     from .runner import run_scenario
 
-    path, digest, r, k, methods, truths = task
+    path, digest, r, k, methods, truths, overrides = task
     try:
-        now = scenario_digest(Path(path).read_bytes().decode("utf-8", "replace"))
+        now = scenario_digest(Path(path).read_bytes().decode("utf-8", "replace")
+                              + _overrides_text(overrides))
     except OSError as exc:
         raise MonteCarloError(f"{path}: cannot read the scenario file on this worker "
                               f"({exc.strerror}); the workers need it at the same path") from None
@@ -72,8 +74,14 @@ def replicate_task(task: tuple) -> dict:
         raise MonteCarloError(f"{path}: the scenario file changed during the run; replicate "
                               f"{r} was not computed (its results would mix two versions)")
     t0 = time.perf_counter()
-    res = run_scenario(path, replicate=r, method_seeds=k, methods=methods, truths=dict(truths))
+    res = run_scenario(path, replicate=r, method_seeds=k, methods=methods, truths=dict(truths),
+                       overrides=overrides)
     return replicate_doc(res, time.perf_counter() - t0)
+
+
+def _overrides_text(overrides: dict | None) -> str:
+    """What a claim-map point adds to its scenario file's text for the digests."""
+    return "" if not overrides else "\n" + json.dumps(overrides, sort_keys=True)
 
 
 def replicate_doc(res, wall_s: float) -> dict:
@@ -105,9 +113,11 @@ class WorkDir:
     SHA-256 of its content and of the scenario it belongs to (``sha256``): a file edited,
     relabelled or copied from another scenario's run is refused by ``--resume``, naming it."""
 
-    def __init__(self, out: Path, sc, method_seeds: int, methods: list[str] | None):
+    def __init__(self, out: Path, sc, method_seeds: int, methods: list[str] | None,
+                 tag: str | None = None):
         self.out = Path(out)
-        self.path = self.out.parent / f".{self.out.name}.replicates"
+        self.path = self.out.parent / (f".{self.out.name}.replicates" if tag is None else
+                                       f".{self.out.name}.{tag}.replicates")
         self.identity = {"kind": "replicates", "scenario": sc.name,
                          "scenario_file": str(sc.path), "scenario_sha256": scenario_digest(sc.text),
                          "fogbench": versions().get("fogbench"), "method_seeds": method_seeds,
@@ -384,6 +394,9 @@ def aggregate(docs: list[dict], sc, plan) -> dict:
     seed_spread: dict = {}
     runs_of: dict = {}
     labels = ["raw", "oracle"] + [m.label for m in plan.methods]
+    if any("oracle_filter" in by for d in docs for p in d["protocols"].values()
+           for by in p.get("runs", {}).values()):
+        labels.insert(2, "oracle_filter")
     for prot in plan.protocols:
         runs: list[str] = []
         for d in docs:
@@ -458,8 +471,14 @@ def aggregate(docs: list[dict], sc, plan) -> dict:
         if spec is not None:
             better_cls = fogcomp.get_method(spec.name)
         # the oracle removes the true deterministic error terms: a floor for a model of those
-        # terms (a supervised method), not for a filter that also removes noise
+        # terms (a supervised method); for a filter, which also removes noise, the floor is the
+        # filter oracle (the best estimate given the true noise model, where the true rate is
+        # constant: fogbench.runner.oracle_filter)
         oracle_bounds = better_cls is not None and better_cls.supervised
+        oracle_label = "oracle"
+        if better_cls is not None and not better_cls.supervised and \
+                "oracle_filter" in labels:
+            oracle_bounds, oracle_label = True, "oracle_filter"
         for prot in plan.protocols:
             runs = [r for r in runs_of[prot.name] if c.run is None or r == c.run]
             if not runs:
@@ -471,7 +490,7 @@ def aggregate(docs: list[dict], sc, plan) -> dict:
                     _is_num(d["protocols"].get(prot.name, {}).get("runs", {}).get(runs[0], {})
                             .get(c.than, {}).get(c.metric)) for d in docs):
                 continue
-            ovals = _improvement(_over_runs(docs, prot.name, runs, "oracle", c.metric), b)
+            ovals = _improvement(_over_runs(docs, prot.name, runs, oracle_label, c.metric), b)
             v = S.claim_verdict(vals, c.min_pct, c.max_pct,
                                 oracle=ovals if oracle_bounds else None, better="higher")
             pair = S.paired_difference(a, b, better="higher" if c.metric.endswith("_pct")
@@ -481,7 +500,7 @@ def aggregate(docs: list[dict], sc, plan) -> dict:
                            "than": c.than, "runs": runs, "min_pct": c.min_pct,
                            "max_pct": c.max_pct, **v.as_dict(),
                            "oracle_improvement": S.summarize(ovals).as_dict(),
-                           "oracle_bounds_claim": oracle_bounds,
+                           "oracle_bounds_claim": oracle_bounds, "oracle": oracle_label,
                            "paired": pair.as_dict(),
                            "over_seeds": _over_seeds(docs, prot.name, runs, c.better, c.than,
                                                      c.metric)})
@@ -534,26 +553,31 @@ class ScenarioMC:
 
     def __init__(self, path, out: Path, replicates: int | None = None,
                  method_seeds: int | None = None, methods: list[str] | None = None,
-                 resume: bool = False):
+                 resume: bool = False, overrides: dict | None = None, tag: str | None = None,
+                 first_in_process: bool = True):
         from .runner import scenario_seed
         from .scenario import RUNNER_SECTIONS, load_plan, load_scenario
 
         self.path = str(path)
-        self.sc = load_scenario(path, extra_sections=RUNNER_SECTIONS)
+        self.overrides = dict(overrides) if overrides else None
+        self.sc = load_scenario(path, extra_sections=RUNNER_SECTIONS, overrides=self.overrides)
         self.plan = load_plan(self.sc)
         self.R = int(replicates or self.plan.replicates)
         self.K = int(method_seeds or self.plan.method_seeds)
         self.methods = methods
         self.seed = scenario_seed(self.sc, self.plan)
-        self.work = WorkDir(out, self.sc, self.K, methods)
-        self.digest = scenario_digest(Path(self.path).read_bytes().decode("utf-8", "replace"))
+        self.first_in_process = first_in_process
+        self.work = WorkDir(out, self.sc, self.K, methods, tag=tag)
+        self.digest = scenario_digest(Path(self.path).read_bytes().decode("utf-8", "replace")
+                                      + _overrides_text(self.overrides))
         done = self.work.open(resume)
         # a resumed folder may hold more replicates than asked for now: the first R are used,
         # the others are left out of this run (and say so)
         self.dropped = sorted(r for r in done if r >= self.R)
         self.done = {r: d for r, d in done.items() if r < self.R}
         self.resumed = sorted(self.done)
-        self.todo = [r for r in range(1, self.R) if r not in self.done]
+        first = 1 if first_in_process else 0
+        self.todo = [r for r in range(first, self.R) if r not in self.done]
         self.futures: dict = {}
         self.failures: list[dict] = []
         # a future is stored once, by its done-callback (a pool's thread) or by wait(),
@@ -567,14 +591,16 @@ class ScenarioMC:
         self.truths: dict = {}
         self.truth_s = 0.0
 
-    def simulate_truths(self, say=None) -> None:
-        """The table's motion of every run, once (it is the same in every replicate)."""
+    def simulate_truths(self, say=None, cache: dict | None = None) -> None:
+        """The table's motion of every run, once (it is the same in every replicate).
+        ``cache`` shares it between scenarios on one table (the points of a claim map)."""
         from sim.rate_table import simulate_truth
 
         t0 = time.perf_counter()
-        same: dict = {}  # power-ons with one motion program share one simulation of the table
+        # power-ons with one motion program share one simulation of the table
+        same: dict = {} if cache is None else cache
         for i, run in enumerate(self.sc.runs):
-            key = (run.motion, run.tilt0)
+            key = (run.motion, run.tilt0, self.sc.table, self.sc.fs)
             if key in same:
                 self.truths[run.name] = same[key]
                 continue
@@ -594,7 +620,7 @@ class ScenarioMC:
             if self.store_error is not None:   # a serial executor runs each task at submit
                 break
             fut = executor.submit(replicate_task, (self.path, self.digest, r, self.K,
-                                                   self.methods, self.truths))
+                                                   self.methods, self.truths, self.overrides))
             self.futures[fut] = r
             fut.add_done_callback(lambda f, cb=on_done: self._store(f, cb))
 

@@ -674,7 +674,8 @@ def _fit_notes(pd: dict) -> str:
 
 
 def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_data: bool = True,
-                  montecarlo: dict | None = None, work=None) -> Path:
+                  montecarlo: dict | None = None, work=None, map_doc: dict | None = None,
+                  map_run=None) -> Path:
     """Write metrics.json, report.md, figures, data (and recording.rrd) into ``out``.
 
     Everything is written into a hidden temporary sibling (its marker file first), which then
@@ -684,6 +685,9 @@ def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_d
     ``montecarlo`` is the replicate aggregate (``fogbench.montecarlo``; in ``metrics.json`` under
     that key, in the report, in the recording); ``work`` the replicates' work folder, whose files
     are copied into ``replicates/`` and which is removed once the directory is in place.
+    ``map_doc`` is the claim map (``fogbench.maps``; in ``metrics.json`` under ``"map"``, a
+    section and one figure per claim in the report), ``map_run`` its points, whose replicates
+    are copied into ``map/point<i>/replicates/``.
     """
     out = check_out_dir(out, "run")
     tmp = new_part_dir(out, "run", {"scenario": res.scenario.name,
@@ -735,9 +739,17 @@ def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_d
             if figure("start distributions", fig_starts, res, montecarlo,
                       tmp / "figures" / "starts.png"):
                 fig_names[("starts",)] = "figures/starts.png"
-        write_metrics(tmp / "metrics.json",
-                      res.metrics if montecarlo is None else {**res.metrics,
-                                                              "montecarlo": montecarlo})
+        if map_doc is not None:
+            from .map_report import fig_map
+
+            for k in range(len(map_doc["claims"])):
+                name = f"figures/map__{k}.png"
+                if figure(f"claim map {k}", fig_map, map_doc, k, tmp / name):
+                    fig_names[("map", k)] = name
+        doc = res.metrics if montecarlo is None else {**res.metrics, "montecarlo": montecarlo}
+        if map_doc is not None:
+            doc = {**doc, "map": map_doc}
+        write_metrics(tmp / "metrics.json", doc)
         text = render_report(res, fig_names, decim)
         if montecarlo is not None:
             text = _insert_mc(text, render_montecarlo(res, montecarlo, fig_names))
@@ -745,6 +757,10 @@ def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_d
             bands = render_bands(res, None)
             if bands:
                 text = _insert_mc(text, "\n".join(bands))
+        if map_doc is not None:
+            from .map_report import render_map
+
+            text = _insert_mc(text, render_map(map_doc, fig_names))
         if notes:
             text += "\n## Left out\n\n" + "\n".join(f"- {n}" for n in notes) + "\n"
         atomic_write_text(tmp / "report.md", text)
@@ -770,9 +786,13 @@ def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_d
         if work is not None:
             work.copy_into(tmp, keep=list(range(montecarlo["replicates_requested"]))
                            if montecarlo else [0])
+        if map_run is not None:
+            map_run.copy_into(tmp)
         replace_dir(tmp, out, "run")
         if work is not None:
             work.remove()  # only now: until the run directory is in place it is the only copy
+        if map_run is not None:
+            map_run.remove()
     except OSError as exc:
         discard_part(tmp)
         raise as_final(exc, tmp, out) from None  # the file as the user will look for it

@@ -210,7 +210,8 @@ def _ident_record(model) -> dict | None:
 
 
 def run_scenario(path, progress=None, methods: list[str] | None = None, replicate: int = 0,
-                 method_seeds: int = 1, truths: dict | None = None) -> ScenarioResult:
+                 method_seeds: int = 1, truths: dict | None = None,
+                 overrides: dict | None = None) -> ScenarioResult:
     """Simulate and score one scenario file. ``progress(message)`` reports each step.
 
     ``replicate`` r draws every random stream (the FOG's switch-on draws and noise, the
@@ -220,10 +221,11 @@ def run_scenario(path, progress=None, methods: list[str] | None = None, replicat
     run always did. ``method_seeds`` K > 1 fits every method that draws random numbers K times
     per fit, with K seeds (their metrics in ``Scored.seed_metrics``). ``truths`` (run name ->
     ``Truth``) caches the deterministic table motion between replicates: filled when empty.
+    ``overrides`` (dotted path -> value) make it a point of the scenario's claim map.
     """
     t_start = time.monotonic()
     say = progress or (lambda msg: None)
-    sc = load_scenario(path, extra_sections=RUNNER_SECTIONS)
+    sc = load_scenario(path, extra_sections=RUNNER_SECTIONS, overrides=overrides)
     plan = load_plan(sc)
     if methods:
         unknown = sorted(set(methods) - {m.label for m in plan.methods})
@@ -256,6 +258,9 @@ def run_scenario(path, progress=None, methods: list[str] | None = None, replicat
                 it.outputs["oracle"] = it.piece.oracle
                 it.metrics["raw"] = score(it.piece.raw, it.piece)
                 it.metrics["oracle"] = score(it.piece.oracle, it.piece, it.metrics["raw"])
+                of = oracle_filter(it.piece, sc.fog, sc.fs)
+                if of is not None:
+                    it.metrics["oracle_filter"] = score(of, it.piece, it.metrics["raw"])
             for ms in plan.methods:
                 say(f"{prot.name}: fit {ms.label} on {', '.join(s.describe() for s in fit_sel)}")
                 seeded = fogcomp.get_method(ms.name).random and \
@@ -280,6 +285,62 @@ def run_scenario(path, progress=None, methods: list[str] | None = None, replicat
     metrics["replicate"] = replicate
     metrics["method_seeds"] = method_seeds
     return ScenarioResult(sc, plan, data, scored, fits, metrics, time.monotonic() - t_start)
+
+
+#: Longest piece the filter oracle is computed for (its Toeplitz solve is O(n^2)).
+ORACLE_FILTER_MAX_SAMPLES = 20_000
+
+
+def noise_autocovariance(params, fs: float, n: int) -> np.ndarray:
+    """Autocovariance of the FOG's stationary noise at lags 0..n-1, (rad/s)^2, from its
+    configured terms (``sim.fog``): white rate (N^2 fs at lag 0), the Gauss-Markov drift
+    (sigma^2 phi^|h|), the flicker's Gauss-Markov components (their variance and corners,
+    ``sim.fog.bias_instability_components``) and the pulse counter's quantisation (a white
+    angle error of one pulse q: 2 (q^2/12) fs^2 at lag 0, -(q^2/12) fs^2 at lag 1). The rate
+    random walk and ramp are not stationary: left out (none of the filter claims' devices has
+    them)."""
+    from sim.fog import bias_instability_components
+
+    h = np.arange(n, dtype=float)
+    c = np.zeros(n)
+    c[0] += params.arw**2 * fs
+    if params.gm_drift:
+        c += params.gm_drift**2 * np.exp(-h / (fs * params.gm_time_constant))
+    if params.bias_instability:
+        corners, sigma = bias_instability_components(params.bias_instability, params.bi_band,
+                                                     params.bi_per_decade)
+        for fc in corners:
+            c += sigma**2 * np.exp(-2.0 * np.pi * fc * h / fs)
+    if params.quantization:
+        q2 = params.quantization**2 / 12.0 * fs**2
+        c[0] += 2.0 * q2
+        if n > 1:
+            c[1] -= q2
+    return c
+
+
+def oracle_filter(piece: Piece, params, fs_run: float) -> np.ndarray | None:
+    """The best a denoiser can do on a piece whose true rate is constant, given the true noise
+    model: the generalised least-squares estimate of that constant, weighted by the inverse of
+    the noise's covariance (``noise_autocovariance``, a Toeplitz solve), output at every
+    sample. A filter claim that asks more than it gives is untestable, as a compensation claim
+    beyond the oracle of the deterministic terms is. None where it does not apply: a moving
+    table, a smoothed or gapped piece, no noise, or more than ``ORACLE_FILTER_MAX_SAMPLES``."""
+    from scipy.linalg import solve_toeplitz
+
+    n = piece.raw.size
+    if n < 2 or n > ORACLE_FILTER_MAX_SAMPLES or abs(piece.fs - fs_run) > 1e-9 * fs_run:
+        return None
+    if np.any(np.diff(piece.t) > 1.5 / piece.fs):
+        return None
+    noise = piece.raw - piece.truth
+    if np.std(piece.truth) > 0.01 * max(np.std(noise), 1e-300):
+        return None
+    c = noise_autocovariance(params, piece.fs, n)
+    if not c[0] > 0:
+        return None
+    w = solve_toeplitz(c, np.ones(n))
+    return np.full(n, float(w @ piece.raw / w.sum()))
 
 
 def _fit(ms, seed, fit_piece: Piece, fit_sel, score_sel):

@@ -8,10 +8,11 @@ The format is documented in the README ("Scenario files").
 
 from __future__ import annotations
 
+import json
 import math
 import re
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -27,11 +28,12 @@ from sim.thermal import (SENSOR_LOCATIONS, TempSensor, ThermalHold, ThermalModel
 
 __all__ = ["ScenarioError", "Scenario", "Run", "load_scenario", "load_presets", "PRESETS_PATH",
            "Selection", "Protocol", "MethodSpec", "Bound", "PaperValue", "Claim", "Plan",
-           "load_plan", "select_indices", "expand", "claim_name"]
+           "load_plan", "select_indices", "expand", "claim_name", "apply_overrides", "MapAxis",
+           "MapPoint", "MapSpec"]
 
 # Top-level tables of the compensation part (validated by load_plan below); others are refused.
 RUNNER_SECTIONS = ("compensation", "protocols", "methods", "bounds", "paper", "claims",
-                   "montecarlo")
+                   "montecarlo", "map")
 MAX_REPLICATES = 10_000
 
 
@@ -450,11 +452,16 @@ def _check_size(runs: list[Run], fs: float, n_axes: int, file: str) -> None:
             "runs' duration_s or lower sample_rate_hz")
 
 
-def load_scenario(path: str | Path, extra_sections: tuple[str, ...] = ()) -> Scenario:
+def load_scenario(path: str | Path, extra_sections: tuple[str, ...] = (),
+                  overrides: dict | None = None) -> Scenario:
     """Load and validate a scenario file. Raises ScenarioError naming file, key and expectation.
 
     ``extra_sections`` names further top-level tables that a later stage validates (they are
-    kept, unread, in ``Scenario.extra``); any other unknown table is refused.
+    kept, unread, in ``Scenario.extra``); any other unknown table is refused. ``overrides``
+    (``{dotted path: value}``, :func:`apply_overrides`) change the file's values before it is
+    validated: a point of a claim map is the scenario with its axes' values set (its own
+    ``[map]`` left out), validated like any file; its text for digests and reports is the file's
+    followed by the overrides.
     """
     path = Path(path)
     file = str(path)
@@ -469,6 +476,11 @@ def load_scenario(path: str | Path, extra_sections: tuple[str, ...] = ()) -> Sce
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError(f"{file}: not valid TOML ({exc})") from None
+    if overrides:
+        doc.pop("map", None)
+        apply_overrides(doc, overrides, file)
+        text = text + "\n# claim-map point: these values set over the file's\n" + "".join(
+            f"# {k} = {json.dumps(v)}\n" for k, v in overrides.items())
     top = _Table(doc, "top level", file)
     sc = _Table(top.get("scenario", "table"), "[scenario]", file)
     name = sc.get("name", "name")
@@ -654,6 +666,7 @@ class Plan:
     replicates: int = 1            # [montecarlo] replicates: power-ons drawn anew per replicate
     method_seeds: int = 1          # [montecarlo] method_seeds: random starts per fit
     mc_seed: int | None = None     # [montecarlo] seed (default: a hash of the scenario name)
+    map: "MapSpec | None" = None   # [map]: the claims at other values of open keys
 
 
 def _segment_bounds(run: Run, fs: float) -> list[tuple[int, int]]:
@@ -872,9 +885,12 @@ def load_plan(sc: Scenario) -> Plan:
     method_seeds = mc.get("method_seeds", "int", 1, lo=1, hi=1000)
     mc_seed = mc.get("seed", "int", None, lo=0, hi=2**63 - 1)
     mc.done()
+    extra.used.add("map")
     extra.done()
-    return Plan(tuple(protocols), tuple(methods), tuple(bounds), tuple(paper), axis, ci, notes,
+    plan = Plan(tuple(protocols), tuple(methods), tuple(bounds), tuple(paper), axis, ci, notes,
                 tuple(claims), replicates, method_seeds, mc_seed)
+    spec = _load_map(extra, sc)
+    return replace(plan, map=spec) if spec is not None else plan
 
 
 MAX_SWEEP = 64
@@ -915,6 +931,190 @@ def _sweep_members(t: _Table, mname: str, params: dict, sweep: dict) -> list[tup
         return all(v == SWEEP_DEFAULT or v == paper[k] for k, v in zip(keys, c))
 
     return [(dict(zip(keys, c)), is_paper(c)) for c in combos]
+
+
+# ---------------------------------------------------------------------------------------------
+# Claim maps: the scenario at other values of keys the papers leave open
+_NAMED_ARRAYS = {"runs": "name", "protocols": "name", "methods": "label"}
+
+
+def _resolve(doc, path: str, file: str):
+    """(container, key) of a dotted ``path`` in a parsed scenario: tables by key, the arrays
+    of tables ``runs`` and ``protocols`` by their element's ``name`` and ``methods`` by its
+    ``label`` (or ``name``), any list by an integer index."""
+    parts = path.split(".")
+    if len(parts) < 2 or not all(parts):
+        raise ScenarioError(f"{file}: [map] set {path!r}: expected a dotted path such as "
+                            "'fog.arw_deg_rt_h' or 'runs.test_m60.motion.0.rate_dps'")
+    cur = doc
+    for i, part in enumerate(parts[:-1]):
+        where = ".".join(parts[:i + 1])
+        if isinstance(cur, list):
+            if i > 0 and parts[i - 1] in _NAMED_ARRAYS and not part.isdigit():
+                field_ = _NAMED_ARRAYS[parts[i - 1]]
+                hits = [x for x in cur if isinstance(x, dict) and
+                        (x.get(field_) == part or x.get("name") == part)]
+                if len(hits) != 1:
+                    raise ScenarioError(f"{file}: [map] set {path!r}: no single "
+                                        f"[[{parts[i - 1]}]] with {field_} {part!r}")
+                cur = hits[0]
+                continue
+            if not part.isdigit() or int(part) >= len(cur):
+                raise ScenarioError(f"{file}: [map] set {path!r}: {where!r} is not an index of "
+                                    f"a list of {len(cur)}")
+            cur = cur[int(part)]
+        elif isinstance(cur, dict):
+            if part not in cur:
+                if i == 0:
+                    cur[part] = {}
+                else:
+                    raise ScenarioError(f"{file}: [map] set {path!r}: the file has no "
+                                        f"{where!r}")
+            cur = cur[part]
+        else:
+            raise ScenarioError(f"{file}: [map] set {path!r}: {where!r} is a value, not a table")
+    last = parts[-1]
+    if isinstance(cur, list):
+        if not last.isdigit() or int(last) >= len(cur):
+            raise ScenarioError(f"{file}: [map] set {path!r}: {last!r} is not an index of a "
+                                f"list of {len(cur)}")
+        return cur, int(last)
+    if not isinstance(cur, dict):
+        raise ScenarioError(f"{file}: [map] set {path!r}: not a key of a table")
+    return cur, last
+
+
+def apply_overrides(doc: dict, overrides: dict, file: str) -> None:
+    """Set each dotted path of ``overrides`` in the parsed scenario ``doc`` (in place); a value
+    None removes the key (the preset's or the default value then applies)."""
+    for path, value in overrides.items():
+        container, key = _resolve(doc, path, file)
+        if value is None:
+            if isinstance(container, dict):
+                container.pop(key, None)
+            continue
+        container[key] = value
+
+
+@dataclass(frozen=True)
+class MapAxis:
+    """One axis of a claim map: its points, each a label and the values it sets."""
+
+    name: str
+    source: str
+    labels: tuple[str, ...]
+    sets: tuple[dict, ...]
+    numeric: tuple[float, ...] | None = None   # a value per point, for a numeric x axis
+
+
+@dataclass(frozen=True)
+class MapPoint:
+    """A point of the map: one point of each axis, the values they set together."""
+
+    index: tuple[int, ...]
+    labels: tuple[str, ...]
+    overrides: dict
+    is_base: bool
+
+    @property
+    def label(self) -> str:
+        return ", ".join(self.labels)
+
+
+@dataclass(frozen=True)
+class MapSpec:
+    """A scenario's ``[map]``: one or two axes, the replicates per point."""
+
+    axes: tuple[MapAxis, ...]
+    replicates: int | None
+    points: tuple[MapPoint, ...]
+
+
+MAX_MAP_POINTS = 25
+
+
+def _load_map(extra: "_Table", sc: "Scenario") -> MapSpec | None:
+    """``[map]``: ``replicates`` (per point; default the scenario's) and one or two
+    ``[[map.axes]]``, each ``name``, ``source`` (where its range comes from) and either ``key``
+    with ``values`` (and optional ``labels``) or ``points``, an array of tables ``{label, set =
+    {"dotted.path" = value, ...}}``. Every point is validated as a scenario of its own."""
+    import itertools
+
+    if not extra.has("map"):
+        return None
+    file = sc.path
+    mt = _Table(extra.get("map", "table"), "[map]", file)
+    replicates = mt.get("replicates", "int", None, lo=1, hi=MAX_REPLICATES)
+    axes = []
+    for i, at in enumerate(mt.get("axes", "tables")):
+        t = _Table(at, f"[[map.axes]][{i}]", file)
+        name = t.get("name", "str")
+        t.where = f"[[map.axes]] '{name}'"
+        source = t.get("source", "str")
+        if t.has("key") == t.has("points"):
+            raise t.err("key", "give either key and values, or points")
+        labels, sets, numeric = [], [], None
+        if t.has("key"):
+            key = t.get("key", "str")
+            values = t.get("values", "any")
+            if not isinstance(values, list) or not values:
+                raise t.err("values", f"expected a non-empty list of values, got {values!r}")
+            given = t.get("labels", "strs", None)
+            if given is not None and len(given) != len(values):
+                raise t.err("labels", f"expected {len(values)} labels, one per value")
+            for j, v in enumerate(values):
+                labels.append(given[j] if given else f"{key.split('.')[-1]} = {v}")
+                sets.append({key: v})
+            if all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values):
+                numeric = tuple(float(v) for v in values)
+        else:
+            for j, pt in enumerate(t.get("points", "tables")):
+                p = _Table(pt, f"{t.where} points[{j}]", file)
+                labels.append(p.get("label", "str"))
+                st = p.get("set", "table", {})
+                sets.append(dict(st))
+                p.done()
+        t.done()
+        if len(set(labels)) != len(labels):
+            raise ScenarioError(f"{file}: {t.where}: point labels must be unique, got {labels}")
+        axes.append(MapAxis(name, source, tuple(labels), tuple(sets), numeric))
+    if not 1 <= len(axes) <= 2:
+        raise mt.err("axes", f"expected one or two [[map.axes]], got {len(axes)}")
+    mt.done()
+    points = []
+    for combo in itertools.product(*(range(len(a.labels)) for a in axes)):
+        over: dict = {}
+        for a, k in zip(axes, combo):
+            for path, v in a.sets[k].items():
+                if path in over and over[path] != v:
+                    raise ScenarioError(f"{file}: [map]: axes set {path!r} twice, to "
+                                        f"{over[path]!r} and {v!r}")
+                over[path] = v
+        points.append((combo, over))
+    if len(points) > MAX_MAP_POINTS:
+        raise mt.err("axes", f"{len(points)} points; at most {MAX_MAP_POINTS}")
+    out = []
+    own = _fingerprint(sc)
+    for combo, over in points:  # every point is a scenario: validated now, before any work
+        labels = tuple(a.labels[k] for a, k in zip(axes, combo))
+        try:
+            psc = load_scenario(file, extra_sections=RUNNER_SECTIONS, overrides=over)
+            load_plan(psc)
+        except ScenarioError as exc:
+            msg = str(exc).removeprefix(f"{file}: ")
+            raise ScenarioError(f"{file}: [map] point {', '.join(labels)!r}: {msg}") from None
+        # the point that runs the file as written (its values set to what the file, or its
+        # preset, already has) is the scenario itself
+        out.append(MapPoint(tuple(combo), labels, over, _fingerprint(psc) == own))
+    return MapSpec(tuple(axes), replicates, tuple(out))
+
+
+def _fingerprint(sc: "Scenario") -> str:
+    """Everything a run of ``sc`` depends on (not its text): equal for two files that run
+    the same."""
+    extra = {k: v for k, v in sc.extra.items() if k != "map"}
+    return repr((sc.fs, sc.table, sc.fog, sc.fog_preset, sc.axes, sc.runs, sc.ambient_c,
+                 sc.thermal_model)) + json.dumps(extra, sort_keys=True, default=repr)
 
 
 def claim_name(first_file: dict, sc: Scenario, path) -> None:

@@ -13,6 +13,7 @@ from .executor import SerialExecutor, check_engine, engine_label, make_executor
 from .fmt import ci_text, fmt, md_table, p_better_text
 from .io import atomic_write_text
 from .montecarlo import MonteCarloError, ScenarioMC
+from .maps import side
 from .outdir import Claim, OutDirError, check_out_dir
 from .progress import Progress
 from .report import write_run_dir
@@ -242,10 +243,22 @@ def summary_markdown(results: list[dict], plans: dict, out: Path, violations: li
                     L.append(f"- {c['source']}: \"{c['text']}\" — `{c['protocol']}`{tag}: "
                              f"{c['better']} vs {c['than']} on {c['metric']}: "
                              f"{ci_text(c['summary'], '_pct')} % (claim {lo}..{hi} %): "
-                             f"**{c['verdict']}** (held in {held} of replicates; oracle "
+                             f"**{c['verdict']}**"
+                             + (f" ({side(c)} the claim)" if side(c) else "")
+                             + f" (held in {held} of replicates; oracle "
                              f"{ci_text(c['oracle_improvement'], '_pct')} %"
                              + ("" if c["oracle_bounds_claim"] else ", not a bound for a filter")
+                             + (" (the filter oracle)" if c.get("oracle") == "oracle_filter"
+                                else "")
                              + ")" + _start_text(c) + ".")
+                L.append("")
+            if doc.get("map"):
+                mp = doc["map"]
+                L += [f"Claim maps ({', '.join(a['name'] for a in mp['axes'])}; "
+                      f"{mp['replicates_per_point']} replicates per point):", ""]
+                for c in mp["claims"]:
+                    tag = " (in-sample)" if c["in_sample"] else ""
+                    L.append(f"- \"{c['text']}\" — `{c['protocol']}`{tag}: {c['sentence']}.")
                 L.append("")
             if mc["rankings"]:
                 L += ["Rankings against the paper's table:", ""]
@@ -293,7 +306,8 @@ def run_suite(scenario_dir: Path, out: Path, check: bool = False, jobs: int | No
               names: list[str] | None = None, replicates: int | None = None,
               method_seeds: int | None = None, scheduler: str | None = None,
               cluster: str | None = None, cluster_options: dict | None = None,
-              resume: bool = False) -> int:
+              resume: bool = False, no_map: bool = False,
+              map_replicates: int | None = None) -> int:
     """Run every scenario of ``scenario_dir`` with its replicates on one executor and write
     ``out/<scenario>/`` and the summary ``out/README.md``. Returns the exit status."""
     scenario_dir = Path(scenario_dir)
@@ -350,7 +364,7 @@ def run_suite(scenario_dir: Path, out: Path, check: bool = False, jobs: int | No
     try:
         return _suite_body(plans, chosen, first_file, results, out, readme, check, jobs,
                            recording, quiet, replicates, method_seeds, scheduler, cluster,
-                           cluster_options, resume)
+                           cluster_options, resume, no_map, map_replicates)
     finally:
         claim.release()
         if created and not any(Path(out).iterdir()):
@@ -359,9 +373,10 @@ def run_suite(scenario_dir: Path, out: Path, check: bool = False, jobs: int | No
 
 def _suite_body(plans, chosen, first_file, results, out, readme, check, jobs, recording,
                 quiet, replicates, method_seeds, scheduler, cluster, cluster_options,
-                resume) -> int:
+                resume, no_map, map_replicates) -> int:
     t0 = time.monotonic()
     mcs: dict = {}
+    maps: dict = {}
     for p in chosen:
         name = next(n for n, f in first_file.items() if str(f) == p)
         try:
@@ -374,22 +389,36 @@ def _suite_body(plans, chosen, first_file, results, out, readme, check, jobs, re
                 # --resume on a suite: a scenario with nothing left over starts afresh
                 mcs[name] = ScenarioMC(p, Path(out) / name, replicates=replicates,
                                        method_seeds=method_seeds, resume=False)
+            if mcs[name].plan.map is not None and not no_map:
+                from .maps import MapRun
+
+                try:
+                    maps[name] = MapRun(p, Path(out) / name, mcs[name],
+                                        replicates=map_replicates, method_seeds=method_seeds,
+                                        resume=resume)
+                except MonteCarloError as exc:
+                    if not (resume and "nothing to resume" in str(exc)):
+                        raise
+                    maps[name] = MapRun(p, Path(out) / name, mcs[name],
+                                        replicates=map_replicates, method_seeds=method_seeds)
         except (MonteCarloError, OutDirError) as exc:
+            if name in mcs:
+                mcs.pop(name).work.remove_if_empty()
             results.append({"path": p, "name": name, "ok": False, "wall_s": 0.0,
                             "error": str(exc)})
             print(f"fogbench: {name} is not run: {exc}", file=sys.stderr)
-    total = sum(len(m.todo) + 1 for m in mcs.values())
+    total = sum(len(m.todo) + 1 for m in mcs.values()) + sum(m.todo for m in maps.values())
     if not quiet:
         print(f"fogbench suite: {len(mcs)} scenario(s), "
               f"{total} replicate(s) in all, on {engine_label(jobs, scheduler, cluster)}",
               file=sys.stderr)
-    need_pool = any(m.todo for m in mcs.values())
+    need_pool = any(m.todo for m in mcs.values()) or any(m.todo for m in maps.values())
     engine = make_executor(jobs=jobs, scheduler=scheduler, cluster=cluster,
                            cluster_options=cluster_options) if need_pool else \
         contextlib.nullcontext(SerialExecutor())
     try:
         _run_all(mcs, engine, total, quiet, out, recording, results,
-                 engine_label(jobs, scheduler, cluster) if need_pool else "this process")
+                 engine_label(jobs, scheduler, cluster) if need_pool else "this process", maps)
     except BaseException:
         kept = {n: len(m.done) for n, m in mcs.items() if m.done}
         if kept:
@@ -397,9 +426,13 @@ def _suite_body(plans, chosen, first_file, results, out, readme, check, jobs, re
                   "; run the suite again with --resume to go on", file=sys.stderr)
         for m in mcs.values():
             m.work.remove_if_empty()
+        for m in maps.values():
+            m.release()
         raise
     for m in mcs.values():  # a failed scenario's empty work folder goes; its claim is released
         m.work.remove_if_empty()
+    for m in maps.values():
+        m.release()
     violations = []
     for r in results:
         if r["ok"]:
@@ -428,16 +461,22 @@ def _suite_body(plans, chosen, first_file, results, out, readme, check, jobs, re
 
 
 def _run_all(mcs: dict, engine, total: int, quiet: bool, out, recording: bool,
-             results: list, label: str) -> None:
+             results: list, label: str, maps: dict | None = None) -> None:
     """Every scenario's replicates on one executor: the tables first, all replicates submitted
     (each stored as it completes), then scenario by scenario its replicate 0 in full here, the
     wait for its others, and its run directory."""
+    maps = maps or {}
     with engine as ex, Progress(total, "suite", quiet=quiet) as bar:
         for name, m in mcs.items():
             try:
-                m.simulate_truths(None if quiet else (
-                    lambda msg, _n=name: print(f"[{_n}] {msg}", file=sys.stderr, flush=True)))
+                cache: dict = {}
+                say = None if quiet else (
+                    lambda msg, _n=name: print(f"[{_n}] {msg}", file=sys.stderr, flush=True))
+                m.simulate_truths(say, cache=cache)
                 m.submit(ex, on_done=lambda ok: bar.advance(failed=not ok))
+                if name in maps:
+                    maps[name].simulate_truths(say, cache=cache)
+                    maps[name].submit(ex, on_done=lambda ok: bar.advance(failed=not ok))
             except Exception:  # reported when its replicate 0 runs (and fails the same way)
                 continue
         for name, m in mcs.items():
@@ -452,9 +491,15 @@ def _run_all(mcs: dict, engine, total: int, quiet: bool, out, recording: bool,
                     raise MonteCarloError(f"every replicate but 0 failed (first: "
                                           f"{m.failures[0]['error']})")
                 doc = m.finish(label)
+                map_doc = None
+                if name in maps:
+                    maps[name].wait()
+                    map_doc = maps[name].finish(doc, label)
                 write_run_dir(m.res0, Path(out) / name, recording=recording,
-                              montecarlo=doc if m.R > 1 else None, work=m.work)
-                metrics = {**m.res0.metrics, **({"montecarlo": doc} if m.R > 1 else {})}
+                              montecarlo=doc if m.R > 1 else None, work=m.work,
+                              map_doc=map_doc, map_run=maps.get(name))
+                metrics = {**m.res0.metrics, **({"montecarlo": doc} if m.R > 1 else {}),
+                           **({"map": map_doc} if map_doc else {})}
                 results.append({"path": m.path, "name": name, "ok": True,
                                 "metrics": metrics, "wall_s": time.monotonic() - t1,
                                 "replicate_failures": m.failures})

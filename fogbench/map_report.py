@@ -1,0 +1,148 @@
+"""The claim maps in a run's report: per claim, a figure of its verdict over the map's points and
+the sentence that says where it holds (``fogbench.maps``)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["render_map", "fig_map", "VERDICT_COLORS"]
+
+#: One colour per verdict (the same in every figure).
+VERDICT_COLORS = {"agrees": "#2a9d3f", "disagrees": "#c0392b", "inconclusive": "#e0a800",
+                  "untestable": "#7f7f7f"}
+
+
+def _num(v) -> str:
+    return "-" if v is None or not math.isfinite(v) else f"{v:+.1f}"
+
+
+def _claimed(c: dict) -> str:
+    lo, hi = c.get("min_pct"), c.get("max_pct")
+    if lo is not None and hi is not None:
+        return f"{lo:g} to {hi:g} %"
+    return f">= {lo:g} %" if lo is not None else f"<= {hi:g} %"
+
+
+def fig_map(map_doc: dict, k: int, path: Path) -> bool:
+    """Claim k's improvement at every point (95 % interval of the mean over replicates),
+    coloured by verdict, the claimed range shaded, the oracle's improvement beside each point,
+    the scenario's own point marked; two axes: a grid, the verdict as colour and the mean in
+    each cell."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .report import _save
+
+    c = map_doc["claims"][k]
+    pts = map_doc["points"]
+    axes = map_doc["axes"]
+    vals = c["points"]
+    if not any(v is not None and v.get("mean") is not None for v in vals):
+        return False
+    if len(axes) == 1:
+        fig, ax = plt.subplots(figsize=(max(5.0, 1.3 * len(pts) + 2.5), 4.2))
+        x = np.arange(len(pts))
+        lo, hi = c.get("min_pct"), c.get("max_pct")
+        ax.axhspan(-1e9 if lo is None else lo, 1e9 if hi is None else hi, color="#2a9d3f",
+                   alpha=0.12, label=f"claimed: {_claimed(c)}")
+        for i, (v, p) in enumerate(zip(vals, pts)):
+            if v is None or v.get("mean") is None:
+                continue
+            col = VERDICT_COLORS.get(v["verdict"], "k")
+            err = [[v["mean"] - (v["ci_low"] if v["ci_low"] is not None else v["mean"])],
+                   [(v["ci_high"] if v["ci_high"] is not None else v["mean"]) - v["mean"]]]
+            ax.errorbar([i], [v["mean"]], yerr=err, fmt="o", color=col, ms=7 if p["base"] else 5,
+                        capsize=4, mec="k" if p["base"] else col)
+            if v.get("oracle_mean") is not None and v.get("oracle_bounds"):
+                ax.plot([i + 0.18], [v["oracle_mean"]], marker="_", ms=12, mew=2, color="0.45")
+        ax.set_xticks(x)
+        ax.set_xticklabels([p["labels"][0] + ("\n(the scenario)" if p["base"] else "")
+                            for p in pts], fontsize=8)
+        ax.set_xlabel(axes[0]["name"])
+        ys = [y for v in vals if v for y in (v.get("ci_low"), v.get("ci_high"), v.get("mean"),
+                                             v.get("oracle_mean") if v.get("oracle_bounds")
+                                             else None) if y is not None]
+        ys += [b for b in (lo, hi) if b is not None]
+        pad = 0.1 * (max(ys) - min(ys) + 1.0)
+        ax.set_ylim(min(ys) - pad, max(ys) + pad)
+        ax.set_xlim(-0.6, len(pts) - 0.4)
+        ax.set_ylabel(f"improvement of {c['better']} over {c['than']}, % ({c['metric']})",
+                      fontsize=8)
+        handles = [plt.Line2D([], [], marker="o", ls="none", color=col, label=v)
+                   for v, col in VERDICT_COLORS.items()]
+        handles.append(plt.Line2D([], [], marker="_", ms=12, mew=2, ls="none", color="0.45",
+                                  label="oracle"))
+        ax.legend(handles=[*ax.get_legend_handles_labels()[0], *handles], fontsize=7,
+                  loc="upper left", bbox_to_anchor=(1.01, 1.0))
+        ax.grid(True, axis="y", alpha=0.3)
+    else:
+        na, nb = len(axes[0]["labels"]), len(axes[1]["labels"])
+        fig, ax = plt.subplots(figsize=(max(5.0, 1.6 * nb + 3), max(3.0, 0.9 * na + 1.8)))
+        from matplotlib.colors import to_rgb
+
+        img = np.ones((na, nb, 3))
+        for v, p in zip(vals, pts):
+            i, j = p["index"]
+            if v is not None:
+                img[i, j] = to_rgb(VERDICT_COLORS.get(v["verdict"], "#ffffff"))
+                txt = f"{_num(v['mean'])} %\n[{_num(v['ci_low'])}, {_num(v['ci_high'])}]"
+                ax.text(j, i, txt + ("\n(the scenario)" if p["base"] else ""), ha="center",
+                        va="center", fontsize=7, color="white",
+                        fontweight="bold" if p["base"] else "normal")
+        ax.imshow(img, aspect="auto", alpha=0.85)
+        ax.set_xticks(range(nb))
+        ax.set_xticklabels(axes[1]["labels"], fontsize=8)
+        ax.set_yticks(range(na))
+        ax.set_yticklabels(axes[0]["labels"], fontsize=8)
+        ax.set_xlabel(axes[1]["name"])
+        ax.set_ylabel(axes[0]["name"])
+        handles = [plt.Line2D([], [], marker="s", ls="none", color=col, label=v)
+                   for v, col in VERDICT_COLORS.items()]
+        ax.legend(handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    ax.set_title(f"{c['text']} ({c['protocol']}): {_claimed(c)}", fontsize=9)
+    _save(fig, path)
+    return True
+
+
+def render_map(map_doc: dict, fig_names: dict) -> str:
+    """The report's "Claim maps" section."""
+    L = ["## Claim maps", "",
+         "Each claim at every point of the scenario's map: the scenario with the values each "
+         f"point sets ({map_doc['replicates_per_point']} replicates per point, the scenario's "
+         "own seeds; the point marked \"the scenario\" is this report's own run). Mean "
+         "improvement [95 % interval], the verdict, and the oracle's improvement where it bounds "
+         "the claim (the oracle of the deterministic terms for a model of them; the filter "
+         "oracle, the best estimate given the true noise model, for a filter).", ""]
+    for a in map_doc["axes"]:
+        L.append(f"- axis **{a['name']}**: {', '.join(a['labels'])}. Range from: {a['source']}")
+    L.append("")
+    for k, c in enumerate(map_doc["claims"]):
+        flag = " (IN-SAMPLE)" if c.get("in_sample") else ""
+        L += [f"### {c['text']} (`{c['protocol']}`{flag})", "",
+              f"Claimed {_claimed(c)} ({c['source']}). **{c['sentence'][0].upper()}"
+              f"{c['sentence'][1:]}.**", ""]
+        fig = fig_names.get(("map", k))
+        if fig:
+            L += [f"![claim map]({fig})", ""]
+        rows = []
+        for v, p in zip(c["points"], map_doc["points"]):
+            label = p["label"] + (" (the scenario)" if p["base"] else "")
+            if v is None:
+                rows.append([label, "-", "not run", "-"])
+                continue
+            verdict = v["verdict"] + (f" ({v['side'].removesuffix(' of')})" if v.get("side")
+                                      else "")
+            oracle = (f"{_num(v['oracle_mean'])} [{_num(v['oracle_ci_low'])}, "
+                      f"{_num(v['oracle_ci_high'])}]" if v.get("oracle_mean") is not None
+                      and v.get("oracle_bounds") else "-")
+            rows.append([label, f"{_num(v['mean'])} [{_num(v['ci_low'])}, "
+                                f"{_num(v['ci_high'])}] %", verdict, oracle])
+        from .fmt import md_table
+
+        L += [md_table(["point", "improvement", "verdict", "oracle"], rows), ""]
+    return "\n".join(L)

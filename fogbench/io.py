@@ -120,7 +120,7 @@ def run_metadata(scenario, rd) -> dict:
         "scenario": scenario.name, "scenario_file": scenario.path, "run": rd.run.name,
         "seed": rd.run.seed, "sample_rate_hz": rd.fs, "samples": rd.n, "axes": list(rd.axes),
         "duration_s": rd.n / rd.fs, "fog_preset": scenario.fog_preset,
-        "fog_source": scenario.fog_source,
+        "fog_source": scenario.fog_source, "fog_device": scenario.device,
         "switch_on_draws": {
             "switch_on_bias_dph": (rd.fog.draws["switch_on_bias"] / DPH).tolist(),
             "g_sens_dph_per_g": (rd.fog.draws["g_sens"] / DPH).tolist(),

@@ -31,6 +31,8 @@ class MapRun:
         self.spec = base.plan.map
         self.base = base
         self.R = int(replicates or self.spec.replicates or base.plan.replicates)
+        # method starts per fit: the command line's, else the map's, else the scenario's
+        method_seeds = method_seeds or self.spec.method_seeds
         self.mcs: dict[int, ScenarioMC] = {}
         try:
             for i, pt in enumerate(self.spec.points):

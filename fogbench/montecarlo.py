@@ -40,7 +40,7 @@ __all__ = ["MonteCarloError", "replicate_task", "replicate_doc", "aggregate", "W
 TIMING_METRICS = ("fit_time_s", "compensate_time_s", "compensate_samples_per_s")
 # per-replicate values kept for the distribution figure and the recording (mean over scored runs)
 SERIES_METRICS = ("rmse_dph", "std_dps", "bias_stability_100s_dph", "drift_rms_dph",
-                  "coef_rms_error_dph", "arw_deg_rt_h", "bias_instability_dph", "rrw_dph_rt_h",
+                  "coef_rms_error_dph", "coef_rms_stderr_dph", "coef_z_rms", "arw_deg_rt_h", "bias_instability_dph", "rrw_dph_rt_h",
                   "gm_sigma_dph", "gm_tau_s",
                   "improvement_rmse_pct", "improvement_bias_stability_pct",
                   "improvement_drift_pct", "improvement_std_pct")

@@ -612,7 +612,7 @@ def _log_replicates(w: _Writer, reps: dict, colors) -> None:
 def _metrics_text(res, decim: dict, piece_decim: list[int]) -> str:
     sc, plan = res.scenario, res.plan
     L = [f"# {sc.name}", "", sc.description, "",
-         f"Axis `{plan.axis}`, {sc.fs:g} Hz, FOG preset `{sc.fog_preset}`. "
+         f"Axis `{plan.axis}`, {sc.fs:g} Hz, FOG: {sc.device}. "
          f"Wall time {res.wall_s:.1f} s.", "",
          "Metric units are in their names: `_dps` deg/s, `_dph` deg/h, `_deg` deg, `_pct` "
          "percent improvement over raw, `_s` seconds. Every metric uses every sample.", "",

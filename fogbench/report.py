@@ -383,8 +383,7 @@ def _paper_value(plan, method, metric, run, segment=None):
 def render_report(res: ScenarioResult, fig_names: dict, decimation: dict) -> str:
     sc, plan, doc = res.scenario, res.plan, res.metrics
     L = [f"# {sc.name}", "", sc.description, "",
-         f"Scenario file: `{Path(sc.path).name}`. FOG: preset `{sc.fog_preset}` "
-         f"({sc.fog_source}); axis `{plan.axis}`; {sc.fs:g} Hz. Wall time {res.wall_s:.1f} s "
+         f"Scenario file: `{Path(sc.path).name}`. FOG: {sc.device}; axis `{plan.axis}`; {sc.fs:g} Hz. Wall time {res.wall_s:.1f} s "
          "(simulating every run, fitting and scoring, in one process; it leaves out writing "
          "this report, its figures and the recording, which the suite summary's wall time of "
          "the scenario includes; a method's own fit time is its `fit_time_s`).", ""]
@@ -1007,8 +1006,8 @@ def render_montecarlo(res: ScenarioResult, mc: dict, fig_names: dict) -> str:
     if ("replicates",) in fig_names:
         L += [f"![distributions over replicates]({fig_names[('replicates',)]})", ""]
     if ("starts",) in fig_names:
-        L += [f"The methods that draw random starts, start by start (points: every start of "
-              f"every replicate; crosses: the replicate means the claims use):", "",
+        L += ["The methods that draw random starts, start by start (points: every start of "
+              "every replicate; crosses: the replicate means the claims use):", "",
               f"![distributions over method starts]({fig_names[('starts',)]})", ""]
     L += render_bands(res, mc)
     return "\n".join(L)

@@ -89,7 +89,7 @@ def _smooth(x: np.ndarray, k: int) -> np.ndarray:
 def make_piece(rd: RunData, sel: Selection, prot: Protocol, axis_j: int) -> Piece:
     """The samples of one run that ``sel`` picks: selection, then smoothing (when the protocol
     smooths, in blocks that never straddle a gap), then the stride (over the smoothed samples)."""
-    plain = Selection(sel.run, sel.segments, sel.start_s, sel.end_s, 1, 0, sel.static_only)
+    plain = replace(sel, stride=1, offset=0)
     idx = select_indices(plain, rd.run, rd.fs, prot.skip_s, rd.truth.table_rate)
     truth = rd.truth_axis(axis_j)
     det = sum((rd.fog.terms[k][:, axis_j] for k in DETERMINISTIC if k in rd.fog.terms),
@@ -398,7 +398,7 @@ def _score_model(model, rec: dict, it: "Scored", rd: RunData, axis_j: int):
     if rec.get("coefficients") and truth_coef:
         se = (rec.get("identifiability") or {}).get("stderr_dph", {})
         ident = [n for n in TERM_NAMES if se.get(n, 0.0) is not None]
-        m.update(_coef_errors(rec["coefficients"], truth_coef, ident))
+        m.update(_coef_errors(rec["coefficients"], truth_coef, ident, se))
     return m, out
 
 
@@ -450,9 +450,14 @@ def _true_coefficients(rd: RunData, j: int) -> dict | None:
     return {n: v / DPH for n, v in zip(TERM_NAMES, d)}
 
 
-def _coef_errors(est: dict, true: dict, identified: list[str]) -> dict:
+def _coef_errors(est: dict, true: dict, identified: list[str],
+                 stderr: dict | None = None) -> dict:
     """Errors of d0..d9 against the truth; the RMS is over the identified coefficients only
-    (an unidentified one is an arbitrary point of its null direction, not an estimate)."""
+    (an unidentified one is an arbitrary point of its null direction, not an estimate). With
+    the fit's own standard errors (``stderr``, deg/h per g^k: the least-squares covariance of
+    ``fogcomp.methods.flnn.identifiability``) also their RMS and the RMS of error / standard
+    error, ``coef_z_rms``: near 1 when the errors are the ones the analysis predicts, far above
+    when something the model leaves out (a misalignment, a range) biases the coefficients."""
     vals = {}
     for name in TERM_NAMES:
         key = next((k for k in est if k == name or k.startswith(name + "_")), None)
@@ -465,7 +470,18 @@ def _coef_errors(est: dict, true: dict, identified: list[str]) -> dict:
     return {"coef_rms_error_dph": float(np.sqrt(np.mean(err[ide] ** 2))) if ide.any() else None,
             "coef_identified": [n for n in TERM_NAMES if n in identified],
             "coef_errors_dph": {n: float(e) for n, e in zip(TERM_NAMES, err)},
-            "coef_true_dph": dict(true)}
+            "coef_true_dph": dict(true), **_coef_z(err, ide, stderr)}
+
+
+def _coef_z(err: np.ndarray, ide: np.ndarray, stderr: dict | None) -> dict:
+    if not stderr:
+        return {}
+    se = np.array([np.nan if stderr.get(n) is None else stderr[n] for n in TERM_NAMES])
+    ok = ide & np.isfinite(se) & (se > 0)
+    if not ok.any():
+        return {}
+    return {"coef_rms_stderr_dph": float(np.sqrt(np.mean(se[ok] ** 2))),
+            "coef_z_rms": float(np.sqrt(np.mean((err[ok] / se[ok]) ** 2)))}
 
 
 def _metrics_doc(sc, plan, data, scored, fits, wall) -> dict:
@@ -485,7 +501,8 @@ def _metrics_doc(sc, plan, data, scored, fits, wall) -> dict:
     return {
         "scenario": sc.name, "scenario_file": sc.path, "description": sc.description,
         "sample_rate_hz": sc.fs, "axis": plan.axis, "fog_preset": sc.fog_preset,
-        "fog_source": sc.fog_source,
+        "fog_source": sc.fog_source, "fog_device": sc.device,
+        "fog_set_over_preset": sc.fog_changed, "map_point": sc.overrides or None,
         "runs": {name: {"seed": rd.run.seed, "samples": rd.n, "duration_s": rd.n / rd.fs,
                         "physics_steps": rd.truth.physics_steps,
                         "settled_hold_fast_path_s": rd.truth.settled_fast_path_s}

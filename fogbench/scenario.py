@@ -192,6 +192,27 @@ class Scenario:
     extra: dict = field(default_factory=dict, compare=False)  # sections later stages read
     text: str = ""
     thermal_model: ThermalModel = ThermalModel()
+    fog_changed: dict = field(default_factory=dict, compare=False)  # [fog] keys over the preset
+    overrides: dict = field(default_factory=dict, compare=False)    # a claim-map point's values
+
+    @property
+    def device(self) -> str:
+        """The device this scenario runs, as a report names it: the preset and its source, the
+        keys the file sets over it and the values a claim-map point sets (never the preset's
+        label alone)."""
+        if self.fog_preset is None:
+            out = "given in the scenario file"
+        else:
+            out = f"preset `{self.fog_preset}` ({self.fog_source})"
+        by_file = {k: v for k, v in self.fog_changed.items()
+                   if f"fog.{k}" not in self.overrides}
+        if self.fog_preset is not None and by_file:
+            out += "; set over the preset by the file: " + ", ".join(
+                f"{k} = {_short(v)}" for k, v in by_file.items())
+        if self.overrides:
+            out += "; claim-map point: " + ", ".join(
+                f"{k} = {_short(v)}" for k, v in self.overrides.items())
+        return out
 
     @property
     def rig(self) -> Rig:
@@ -248,7 +269,11 @@ def _fog(tbl: _Table, fs: float) -> tuple[FogParams, str | None, str, tuple[str,
             raise tbl.err("preset", f"expected one of {sorted(presets)}, got {preset_name!r}")
         values.update(presets[preset_name])
         source = values.pop("source", f"preset {preset_name}")
+    preset_values = dict(values)
     values.update({k: v for k, v in tbl.data.items() if k != "preset"})
+    # the keys the file sets over its preset (or every key, without one): a report names them
+    changed = {k: v for k, v in tbl.data.items()
+               if k not in ("preset", "axes", "source") and preset_values.get(k) != v}
     merged = _Table(values, tbl.where, tbl.file)
     merged.used.add("source")
     kw: dict[str, Any] = {}
@@ -305,7 +330,7 @@ def _fog(tbl: _Table, fs: float) -> tuple[FogParams, str | None, str, tuple[str,
     kw["disabled"] = tuple(disabled)
     thermal = _fog_thermal(merged, fs)
     merged.done()
-    return FogParams(**kw), preset_name, source, axes, thermal
+    return FogParams(**kw), preset_name, source, axes, thermal, changed
 
 
 def _fog_thermal(tbl: _Table, fs: float) -> ThermalModel:
@@ -452,6 +477,11 @@ def _check_size(runs: list[Run], fs: float, n_axes: int, file: str) -> None:
             "runs' duration_s or lower sample_rate_hz")
 
 
+def _short(v) -> str:
+    t = json.dumps(v)
+    return t if len(t) <= 80 else t[:77] + "..."
+
+
 def load_scenario(path: str | Path, extra_sections: tuple[str, ...] = (),
                   overrides: dict | None = None) -> Scenario:
     """Load and validate a scenario file. Raises ScenarioError naming file, key and expectation.
@@ -476,9 +506,10 @@ def load_scenario(path: str | Path, extra_sections: tuple[str, ...] = (),
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError(f"{file}: not valid TOML ({exc})") from None
-    if overrides:
+    if overrides is not None:  # a point of the claim map (its own [map] left out)
         doc.pop("map", None)
         apply_overrides(doc, overrides, file)
+    if overrides:
         text = text + "\n# claim-map point: these values set over the file's\n" + "".join(
             f"# {k} = {json.dumps(v)}\n" for k, v in overrides.items())
     top = _Table(doc, "top level", file)
@@ -489,8 +520,8 @@ def load_scenario(path: str | Path, extra_sections: tuple[str, ...] = (),
     ambient = sc.get("ambient_c", "float", 20.0, lo=-80.0, hi=150.0)
     sc.done()
     table = _table_cfg(_Table(top.get("table", "table", {}), "[table]", file))
-    fog, preset, source, axes, thermal_model = _fog(_Table(top.get("fog", "table"), "[fog]", file),
-                                                    fs)
+    fog, preset, source, axes, thermal_model, changed = _fog(
+        _Table(top.get("fog", "table"), "[fog]", file), fs)
     default_thermal = None
     if top.has("thermal"):
         default_thermal = _thermal(_Table(top.get("thermal", "table"), "[thermal]", file))
@@ -540,7 +571,8 @@ def load_scenario(path: str | Path, extra_sections: tuple[str, ...] = (),
     top.done()
     return Scenario(path=file, name=name, description=description, fs=fs, table=table, fog=fog,
                     fog_preset=preset, fog_source=source, axes=axes, runs=tuple(runs),
-                    ambient_c=ambient, extra=extra, text=text, thermal_model=thermal_model)
+                    ambient_c=ambient, extra=extra, text=text, thermal_model=thermal_model,
+                    fog_changed=changed, overrides=dict(overrides or {}))
 
 
 # =============================================================================================
@@ -549,7 +581,8 @@ def load_scenario(path: str | Path, extra_sections: tuple[str, ...] = (),
 #
 # ``[[protocols]]`` say which samples fit the methods and which score them. A selection is a run
 # name, or a table ``{run = "name", segments = [i, ...], start_s = a, end_s = b, stride = k,
-# offset = j, static_only = true}``; ``run = "*"`` makes the protocol per-run: each run is fitted on
+# offset = j, static_only = true, settle_s = s}`` (settle_s: the first s seconds of each
+# selected segment left out, a rate table's transients); ``run = "*"`` makes the protocol per-run: each run is fitted on
 # its own fit selection and scored on its own score selection (re-calibration at every switch-on).
 # Scoring on samples a method was fitted on is refused, unless the protocol says
 # ``in_sample = true`` (reproducing a paper's own protocol), and then the scenario must also have a
@@ -566,7 +599,7 @@ METRIC_NAMES = {
     "bias_instability_floor_dph", "gm_sigma_dph", "gm_tau_s",
     "fit_time_s", "compensate_time_s", "improvement_std_pct", "improvement_rmse_pct",
     "improvement_bias_stability_pct", "coef_rms_error_dph", "drift_rms_dph",
-    "improvement_drift_pct", "mean_error_dph",
+    "improvement_drift_pct", "mean_error_dph", "coef_rms_stderr_dph", "coef_z_rms",
 }
 
 
@@ -579,6 +612,7 @@ class Selection:
     stride: int = 1
     offset: int = 0
     static_only: bool = False
+    settle_s: float = 0.0         # left out at the start of each selected segment (transients)
 
     def describe(self) -> str:
         parts = [self.run]
@@ -590,6 +624,8 @@ class Selection:
             parts.append(f"every {self.stride}-th sample from #{self.offset}")
         if self.static_only:
             parts.append("static samples only")
+        if self.settle_s:
+            parts.append(f"the first {self.settle_s:g} s of each segment left out")
         return ", ".join(parts)
 
 
@@ -687,7 +723,7 @@ def select_indices(sel: Selection, run: Run, fs: float, skip_s: float,
         bounds = _segment_bounds(run, fs)
         for i in sel.segments:
             a, b = bounds[i]
-            mask[a:b] = True
+            mask[min(b, a + int(round(sel.settle_s * fs))):b] = True
     else:
         mask[:] = True
     t = np.arange(n) / fs
@@ -735,7 +771,11 @@ def _selection(v, where: str, file: str, run_names: set[str], runs: dict[str, Ru
         stride=t.get("stride", "int", 1, lo=1),
         offset=t.get("offset", "int", 0, lo=0),
         static_only=t.get("static_only", "bool", False),
+        settle_s=t.get("settle_s", "float", 0.0, lo=0.0, hi=1e6),
     )
+    if sel.settle_s and not sel.segments:
+        raise t.err("settle_s", "leaves out the start of each selected segment: give "
+                    "'segments' too")
     if sel.offset >= sel.stride and sel.stride > 1:
         raise t.err("offset", f"expected 0 <= offset < stride = {sel.stride}, got {sel.offset}")
     t.done()
@@ -889,7 +929,7 @@ def load_plan(sc: Scenario) -> Plan:
     extra.done()
     plan = Plan(tuple(protocols), tuple(methods), tuple(bounds), tuple(paper), axis, ci, notes,
                 tuple(claims), replicates, method_seeds, mc_seed)
-    spec = _load_map(extra, sc)
+    spec = _load_map(extra, sc, plan)
     return replace(plan, map=spec) if spec is not None else plan
 
 
@@ -938,18 +978,21 @@ def _sweep_members(t: _Table, mname: str, params: dict, sweep: dict) -> list[tup
 _NAMED_ARRAYS = {"runs": "name", "protocols": "name", "methods": "label"}
 
 
-def _resolve(doc, path: str, file: str):
-    """(container, key) of a dotted ``path`` in a parsed scenario: tables by key, the arrays
-    of tables ``runs`` and ``protocols`` by their element's ``name`` and ``methods`` by its
-    ``label`` (or ``name``), any list by an integer index."""
+def _resolve(doc, path: str, file: str) -> list:
+    """Every (container, key) a dotted ``path`` names in a parsed scenario: tables by key, the
+    arrays of tables ``runs`` and ``protocols`` by their element's ``name`` and ``methods`` by
+    its ``label`` (or ``name``), any list by an integer index, and ``*`` for every element of
+    an array (``runs.*.motion.0.rate_dps``: that key of every run)."""
     parts = path.split(".")
     if len(parts) < 2 or not all(parts):
         raise ScenarioError(f"{file}: [map] set {path!r}: expected a dotted path such as "
                             "'fog.arw_deg_rt_h' or 'runs.test_m60.motion.0.rate_dps'")
-    cur = doc
-    for i, part in enumerate(parts[:-1]):
-        where = ".".join(parts[:i + 1])
+
+    def step(cur, i):
+        part, where = parts[i], ".".join(parts[:i + 1])
         if isinstance(cur, list):
+            if part == "*":
+                return list(cur)
             if i > 0 and parts[i - 1] in _NAMED_ARRAYS and not part.isdigit():
                 field_ = _NAMED_ARRAYS[parts[i - 1]]
                 hits = [x for x in cur if isinstance(x, dict) and
@@ -957,43 +1000,56 @@ def _resolve(doc, path: str, file: str):
                 if len(hits) != 1:
                     raise ScenarioError(f"{file}: [map] set {path!r}: no single "
                                         f"[[{parts[i - 1]}]] with {field_} {part!r}")
-                cur = hits[0]
-                continue
+                return hits
             if not part.isdigit() or int(part) >= len(cur):
                 raise ScenarioError(f"{file}: [map] set {path!r}: {where!r} is not an index of "
                                     f"a list of {len(cur)}")
-            cur = cur[int(part)]
-        elif isinstance(cur, dict):
+            return [cur[int(part)]]
+        if isinstance(cur, dict):
             if part not in cur:
                 if i == 0:
                     cur[part] = {}
                 else:
                     raise ScenarioError(f"{file}: [map] set {path!r}: the file has no "
                                         f"{where!r}")
-            cur = cur[part]
+            return [cur[part]]
+        raise ScenarioError(f"{file}: [map] set {path!r}: "
+                            f"{'.'.join(parts[:i])!r} is a value, not a table")
+
+    curs = [doc]
+    for i in range(len(parts) - 1):
+        curs = [c for cur in curs for c in step(cur, i)]
+    last, out = parts[-1], []
+    for cur in curs:
+        if isinstance(cur, list):
+            if last == "*":
+                out += [(cur, j) for j in range(len(cur))]
+                continue
+            if not last.isdigit() or int(last) >= len(cur):
+                raise ScenarioError(f"{file}: [map] set {path!r}: {last!r} is not an index of "
+                                    f"a list of {len(cur)}")
+            out.append((cur, int(last)))
+        elif isinstance(cur, dict):
+            out.append((cur, last))
         else:
-            raise ScenarioError(f"{file}: [map] set {path!r}: {where!r} is a value, not a table")
-    last = parts[-1]
-    if isinstance(cur, list):
-        if not last.isdigit() or int(last) >= len(cur):
-            raise ScenarioError(f"{file}: [map] set {path!r}: {last!r} is not an index of a "
-                                f"list of {len(cur)}")
-        return cur, int(last)
-    if not isinstance(cur, dict):
-        raise ScenarioError(f"{file}: [map] set {path!r}: not a key of a table")
-    return cur, last
+            raise ScenarioError(f"{file}: [map] set {path!r}: not a key of a table")
+    if not out:
+        raise ScenarioError(f"{file}: [map] set {path!r}: names nothing (an empty array)")
+    return out
 
 
 def apply_overrides(doc: dict, overrides: dict, file: str) -> None:
     """Set each dotted path of ``overrides`` in the parsed scenario ``doc`` (in place); a value
     None removes the key (the preset's or the default value then applies)."""
+    import copy
+
     for path, value in overrides.items():
-        container, key = _resolve(doc, path, file)
-        if value is None:
-            if isinstance(container, dict):
-                container.pop(key, None)
-            continue
-        container[key] = value
+        for container, key in _resolve(doc, path, file):
+            if value is None:
+                if isinstance(container, dict):
+                    container.pop(key, None)
+                continue
+            container[key] = copy.deepcopy(value)
 
 
 @dataclass(frozen=True)
@@ -1023,17 +1079,20 @@ class MapPoint:
 
 @dataclass(frozen=True)
 class MapSpec:
-    """A scenario's ``[map]``: one or two axes, the replicates per point."""
+    """A scenario's ``[map]``: one or two axes, the replicates (and method starts) per point,
+    the metrics shown at every point beside the claims."""
 
     axes: tuple[MapAxis, ...]
     replicates: int | None
     points: tuple[MapPoint, ...]
+    method_seeds: int | None = None
+    metrics: tuple[tuple[str, str, str], ...] = ()   # (protocol, method label, metric)
 
 
 MAX_MAP_POINTS = 25
 
 
-def _load_map(extra: "_Table", sc: "Scenario") -> MapSpec | None:
+def _load_map(extra: "_Table", sc: "Scenario", plan: "Plan") -> MapSpec | None:
     """``[map]``: ``replicates`` (per point; default the scenario's) and one or two
     ``[[map.axes]]``, each ``name``, ``source`` (where its range comes from) and either ``key``
     with ``values`` (and optional ``labels``) or ``points``, an array of tables ``{label, set =
@@ -1045,6 +1104,14 @@ def _load_map(extra: "_Table", sc: "Scenario") -> MapSpec | None:
     file = sc.path
     mt = _Table(extra.get("map", "table"), "[map]", file)
     replicates = mt.get("replicates", "int", None, lo=1, hi=MAX_REPLICATES)
+    method_seeds = mt.get("method_seeds", "int", None, lo=1, hi=1000)
+    metrics = []
+    for m in mt.get("metrics", "strs", []):
+        bits = m.split(".")
+        if len(bits) != 3 or not all(bits):
+            raise mt.err("metrics", f"{m!r}: expected 'protocol.method.metric', e.g. "
+                         "'held_out.kalman.std_dps'")
+        metrics.append(tuple(bits))
     axes = []
     for i, at in enumerate(mt.get("axes", "tables")):
         t = _Table(at, f"[[map.axes]][{i}]", file)
@@ -1106,7 +1173,20 @@ def _load_map(extra: "_Table", sc: "Scenario") -> MapSpec | None:
         # the point that runs the file as written (its values set to what the file, or its
         # preset, already has) is the scenario itself
         out.append(MapPoint(tuple(combo), labels, over, _fingerprint(psc) == own))
-    return MapSpec(tuple(axes), replicates, tuple(out))
+    protocols = {p.name for p in plan.protocols}
+    labels_ = {m.label for m in plan.methods} | {"raw", "oracle", "oracle_filter"}
+    for prot, meth, metric in metrics:
+        what = f"{prot}.{meth}.{metric}"
+        if prot not in protocols:
+            raise mt.err("metrics", f"{what!r}: no protocol {prot!r}; protocols: "
+                         f"{sorted(protocols)}")
+        if meth not in labels_:
+            raise mt.err("metrics", f"{what!r}: no method labelled {meth!r}; methods: "
+                         f"{sorted(labels_)}")
+        if metric not in METRIC_NAMES:
+            raise mt.err("metrics", f"{what!r}: {metric!r} is not a metric; metrics: "
+                         f"{sorted(METRIC_NAMES)}")
+    return MapSpec(tuple(axes), replicates, tuple(out), method_seeds, tuple(metrics))
 
 
 def _fingerprint(sc: "Scenario") -> str:
@@ -1133,8 +1213,7 @@ def expand(prot: Protocol, sc: Scenario) -> list[tuple[list[Selection], list[Sel
         return [(list(prot.fit), list(prot.score))]
     out = []
     for rname in prot.runs:
-        sub = lambda s: Selection(rname, s.segments, s.start_s, s.end_s, s.stride, s.offset,  # noqa: E731
-                                  s.static_only)
+        sub = lambda s: replace(s, run=rname)  # noqa: E731
         out.append(([sub(s) for s in prot.fit], [sub(s) for s in prot.score]))
     return out
 
@@ -1144,9 +1223,9 @@ def _selected_samples(s: Selection, prot: Protocol, run: Run, fs: float) -> np.n
     blocks). static_only can only shrink a selection, so it is left out (conservative)."""
     k = stride_blocks(prot.smooth_s, fs)
     if k == 1:
-        return select_indices(Selection(s.run, s.segments, s.start_s, s.end_s, s.stride,
-                                        s.offset), run, fs, prot.skip_s)
-    idx = select_indices(Selection(s.run, s.segments, s.start_s, s.end_s), run, fs, prot.skip_s)
+        return select_indices(replace(s, static_only=False), run, fs, prot.skip_s)
+    idx = select_indices(replace(s, static_only=False, stride=1, offset=0), run, fs,
+                         prot.skip_s)
     if s.stride == 1:
         return idx
     parts = [p for p in np.split(idx, np.flatnonzero(np.diff(idx) != 1) + 1) if p.size >= k]

@@ -10,13 +10,13 @@ import pytest
 
 from fogbench.scenario import _fog, _Table
 from fogcomp import units as U
-from sim.fog import TERMS, simulate_fog
+from sim.fog import simulate_fog
 from sim.rig import load_presets
 from sim.thermal import ThermalHold, ThermalProgram, ThermalRamp, simulate_thermal
 
 
 def preset(name, fs=1.0):
-    params, _, _, _, thermal = _fog(_Table({"preset": name}, "[fog]", "test"), fs)
+    params, _, _, _, thermal, _ = _fog(_Table({"preset": name}, "[fog]", "test"), fs)
     return params, thermal
 
 

@@ -115,6 +115,12 @@ def _cmd_run(args) -> int:
     from .report import write_run_dir
     from .scenario import RUNNER_SECTIONS, load_plan, load_scenario
 
+    from .scenario import load_map_file, map_file_scenario
+
+    map_file = None
+    target = map_file_scenario(args.scenario)   # a map file: its scenario, with its [map]
+    if target is not None:
+        map_file, args.scenario = args.scenario, str(target)
     sc = load_scenario(args.scenario, extra_sections=RUNNER_SECTIONS)  # refuse bad input first
     plan = load_plan(sc)
     if args.method:
@@ -122,8 +128,16 @@ def _cmd_run(args) -> int:
         if unknown:
             raise ValueError(f"--method: {args.scenario}: no method labelled {unknown}; "
                              f"methods: {[m.label for m in plan.methods]}")
+    map_spec = None
+    if map_file is not None:
+        if args.no_map:
+            raise ValueError(f"--no-map: {map_file} is a claim map; run its scenario "
+                             f"{args.scenario} for the run without one")
+        map_spec = load_map_file(map_file, sc, plan)
     name = sc.name
-    out = check_out_dir(args.out if args.out is not None else Path("reports") / name, "run")
+    default_out = (Path("reports") / "maps" / Path(map_file).stem if map_file is not None
+                   else Path("reports") / name)
+    out = check_out_dir(args.out if args.out is not None else default_out, "run")
     from .executor import check_engine
 
     check_engine(**_engine_options(args))  # whatever the replicate count: a bad flag is an error
@@ -131,6 +145,10 @@ def _cmd_run(args) -> int:
         lambda msg: print(f"[{name}] {msg}", file=sys.stderr, flush=True))
     mc = ScenarioMC(args.scenario, out, replicates=args.replicates,
                     method_seeds=args.method_seeds, methods=args.method, resume=args.resume)
+    if map_spec is not None:
+        from dataclasses import replace
+
+        mc.plan = replace(mc.plan, map=map_spec)
     mapper = None
     if mc.plan.map is not None and not args.no_map:
         from .maps import MapRun
@@ -203,7 +221,8 @@ def _cmd_run(args) -> int:
 
 
 def _cmd_check(args) -> int:
-    from .scenario import RUNNER_SECTIONS, ScenarioError, claim_name, load_plan, load_scenario
+    from .scenario import (RUNNER_SECTIONS, ScenarioError, claim_name, load_map_file, load_plan,
+                           load_scenario, map_file_scenario)
 
     bad = 0
     paths = []
@@ -220,6 +239,14 @@ def _cmd_check(args) -> int:
     first_file: dict = {}
     for path in paths:  # every file is checked and reported, not only the first bad one
         try:
+            target = map_file_scenario(path)
+            if target is not None:   # a map file: its scenario and its [map], every point
+                sc = load_scenario(target, extra_sections=RUNNER_SECTIONS)
+                spec = load_map_file(path, sc, load_plan(sc))
+                print(f"{path}: ok: claim map of {target} ({sc.name!r}), "
+                      f"{len(spec.points)} point(s) over "
+                      f"{', '.join(a.name for a in spec.axes)}")
+                continue
             sc = load_scenario(path, extra_sections=RUNNER_SECTIONS)
             plan = load_plan(sc)
             claim_name(first_file, sc, path)  # as fogbench suite refuses two with one name
@@ -230,7 +257,8 @@ def _cmd_check(args) -> int:
         n = sum(r.duration for r in sc.runs) * sc.fs
         print(f"{path}: ok: scenario {sc.name!r}, {len(sc.runs)} run(s), {n:.0f} samples, "
               f"{len(plan.protocols)} protocol(s), {len(plan.methods)} method(s), "
-              f"{plan.replicates} replicate(s)")
+              f"{plan.replicates} replicate(s)"
+              + (f"; a claim map of {len(plan.map.points)} point(s)" if plan.map else ""))
     return 2 if bad else 0
 
 

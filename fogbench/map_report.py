@@ -91,10 +91,12 @@ def fig_map(map_doc: dict, k: int, path: Path) -> bool:
             if v is not None:
                 img[i, j] = to_rgb(VERDICT_COLORS.get(v["verdict"], "#ffffff"))
                 txt = f"{_num(v['mean'])} %\n[{_num(v['ci_low'])}, {_num(v['ci_high'])}]"
+                if v.get("oracle_mean") is not None and v.get("oracle_bounds"):
+                    txt += f"\noracle {_num(v['oracle_mean'])} %"
                 ax.text(j, i, txt + ("\n(the scenario)" if p["base"] else ""), ha="center",
-                        va="center", fontsize=7, color="white",
+                        va="center", fontsize=7, color="black",
                         fontweight="bold" if p["base"] else "normal")
-        ax.imshow(img, aspect="auto", alpha=0.85)
+        ax.imshow(img, aspect="auto", alpha=0.45)
         ax.set_xticks(range(nb))
         ax.set_xticklabels(axes[1]["labels"], fontsize=8)
         ax.set_yticks(range(na))
@@ -145,4 +147,25 @@ def render_map(map_doc: dict, fig_names: dict) -> str:
         from .fmt import md_table
 
         L += [md_table(["point", "improvement", "verdict", "oracle"], rows), ""]
+    if map_doc.get("metrics"):
+        from .fmt import md_table
+
+        L += ["### Metrics at every point", "",
+              "Mean [95 % interval] over replicates of the mean over the protocol's scored runs "
+              "(units in the metric names).", ""]
+        head = ["point"] + [f"{m['protocol']}: {m['method']} {m['metric']}"
+                            for m in map_doc["metrics"]]
+        rows = []
+        for i, p in enumerate(map_doc["points"]):
+            row = [p["label"] + (" (the scenario)" if p["base"] else "")]
+            for m in map_doc["metrics"]:
+                v = m["points"][i]
+                row.append("-" if not v or v.get("mean") is None else
+                           f"{_g(v['mean'])} [{_g(v['ci_low'])}, {_g(v['ci_high'])}]")
+            rows.append(row)
+        L += [md_table(head, rows), ""]
     return "\n".join(L)
+
+
+def _g(v) -> str:
+    return "-" if v is None or not math.isfinite(v) else f"{v:.3g}"

@@ -118,10 +118,21 @@ class MapRun:
             entry["points"] = per_point
             entry["sentence"] = map_sentence(entry, points)
             claims.append(entry)
+        metrics = []
+        for prot, meth, metric in self.spec.metrics:
+            per_point = []
+            for i in range(len(self.spec.points)):
+                sm = ((aggs[i].get("over_runs") or {}).get(prot, {}).get(meth, {})
+                      .get(metric)) or {}
+                per_point.append({k: sm.get(k) for k in ("mean", "ci_low", "ci_high", "n")}
+                                 if sm else None)
+            metrics.append({"protocol": prot, "method": meth, "metric": metric,
+                            "points": per_point})
         return {"axes": [{"name": a.name, "source": a.source, "labels": list(a.labels),
                           "numeric": list(a.numeric) if a.numeric else None}
                          for a in self.spec.axes],
-                "replicates_per_point": self.R, "points": points, "claims": claims}
+                "replicates_per_point": self.R, "points": points, "claims": claims,
+                "metrics": metrics}
 
 
 def side(claim: dict) -> str | None:

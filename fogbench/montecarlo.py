@@ -691,7 +691,13 @@ class ScenarioMC:
 
     def finish(self, engine: str) -> dict:
         docs = [self.done[r] for r in self.kept()]
-        mc = aggregate(docs, self.sc, self.plan)
+        plan = self.plan
+        if self.methods:  # --method: the claims and rankings of the methods that ran
+            from dataclasses import replace
+
+            plan = replace(plan, methods=tuple(m for m in plan.methods
+                                               if m.label in self.methods))
+        mc = aggregate(docs, self.sc, plan)
         walls = [d["wall_s"] for d in docs if d["replicate"] > 0 and _is_num(d.get("wall_s"))]
         med = float(np.median(walls)) if walls else None
         mc.update({

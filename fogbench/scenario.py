@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import math
 import re
+import os
 import tomllib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -1032,7 +1033,8 @@ def _resolve(doc, path: str, file: str) -> list:
         elif isinstance(cur, dict):
             out.append((cur, last))
         else:
-            raise ScenarioError(f"{file}: [map] set {path!r}: not a key of a table")
+            raise ScenarioError(f"{file}: [map] set {path!r}: "
+                                f"{'.'.join(parts[:-1])!r} is a value, not a table")
     if not out:
         raise ScenarioError(f"{file}: [map] set {path!r}: names nothing (an empty array)")
     return out
@@ -1092,17 +1094,67 @@ class MapSpec:
 MAX_MAP_POINTS = 25
 
 
-def _load_map(extra: "_Table", sc: "Scenario", plan: "Plan") -> MapSpec | None:
-    """``[map]``: ``replicates`` (per point; default the scenario's) and one or two
+def _read_toml(path) -> dict:
+    file = str(path)
+    try:
+        raw = Path(path).read_bytes()
+    except OSError as exc:
+        raise ScenarioError(f"{file}: cannot read ({exc.strerror})") from None
+    try:
+        return tomllib.loads(decode_text(raw, file))
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"{file}: not valid TOML ({exc})") from None
+
+
+def map_file_scenario(path) -> Path | None:
+    """The scenario a map file names (``scenario = "../paper004_flnn.toml"``, relative to the
+    map file), or None when ``path`` is a scenario file (its ``[scenario]`` is a table)."""
+    if Path(path).is_dir():
+        return None
+    try:
+        doc = _read_toml(path)
+    except ScenarioError:
+        return None      # load_scenario names the problem
+    v = doc.get("scenario")
+    if not isinstance(v, str):
+        return None
+    target = Path(os.path.normpath(Path(path).parent / v))
+    if not target.is_file():
+        raise ScenarioError(f"{path}: key 'scenario': {v!r} ({target}) is not a file; a map "
+                            "file names its scenario relative to itself")
+    return target
+
+
+def load_map_file(path, sc: "Scenario", plan: "Plan") -> MapSpec:
+    """A map file: ``scenario = "<its scenario file, relative to the map file>"`` and one
+    ``[map]`` table, as a scenario's, that replaces the scenario's own (a denser map of the same
+    scenario: ``fogbench run scenarios/maps/paper004_flnn.toml``)."""
+    file = str(path)
+    top = _Table(_read_toml(path), "top level", file)
+    top.get("scenario", "str")
+    if not top.has("map"):
+        raise ScenarioError(f"{file}: a map file holds its scenario's path and one [map] "
+                            "table (with its [[map.axes]]); this one has no [map]")
+    top.used.add("map")
+    top.done()
+    return _load_map(top, sc, plan, where=file)
+
+
+def _load_map(extra: "_Table", sc: "Scenario", plan: "Plan",
+              where: str | None = None) -> MapSpec | None:
+    """``[map]``: ``replicates`` (per point; default the scenario's), ``method_seeds``,
+    ``metrics`` (``"protocol.method.metric"`` shown at every point) and one or two
     ``[[map.axes]]``, each ``name``, ``source`` (where its range comes from) and either ``key``
     with ``values`` (and optional ``labels``) or ``points``, an array of tables ``{label, set =
-    {"dotted.path" = value, ...}}``. Every point is validated as a scenario of its own."""
+    {"dotted.path" = value, ...}}``. Every point is validated as a scenario of its own.
+    ``where``: the file errors name (a map file; default the scenario)."""
     import itertools
 
     if not extra.has("map"):
         return None
     file = sc.path
-    mt = _Table(extra.get("map", "table"), "[map]", file)
+    where = where or file
+    mt = _Table(extra.get("map", "table"), "[map]", where)
     replicates = mt.get("replicates", "int", None, lo=1, hi=MAX_REPLICATES)
     method_seeds = mt.get("method_seeds", "int", None, lo=1, hi=1000)
     metrics = []
@@ -1112,9 +1164,22 @@ def _load_map(extra: "_Table", sc: "Scenario", plan: "Plan") -> MapSpec | None:
             raise mt.err("metrics", f"{m!r}: expected 'protocol.method.metric', e.g. "
                          "'held_out.kalman.std_dps'")
         metrics.append(tuple(bits))
+    protocols = {p.name for p in plan.protocols}
+    labels_ = {m.label for m in plan.methods} | {"raw", "oracle", "oracle_filter"}
+    for prot, meth, metric in metrics:
+        what = f"{prot}.{meth}.{metric}"
+        if prot not in protocols:
+            raise mt.err("metrics", f"{what!r}: no protocol {prot!r}; protocols: "
+                         f"{sorted(protocols)}")
+        if meth not in labels_:
+            raise mt.err("metrics", f"{what!r}: no method labelled {meth!r}; methods: "
+                         f"{sorted(labels_)}")
+        if metric not in METRIC_NAMES:
+            raise mt.err("metrics", f"{what!r}: {metric!r} is not a metric; metrics: "
+                         f"{sorted(METRIC_NAMES)}")
     axes = []
     for i, at in enumerate(mt.get("axes", "tables")):
-        t = _Table(at, f"[[map.axes]][{i}]", file)
+        t = _Table(at, f"[[map.axes]][{i}]", where)
         name = t.get("name", "str")
         t.where = f"[[map.axes]] '{name}'"
         source = t.get("source", "str")
@@ -1136,14 +1201,14 @@ def _load_map(extra: "_Table", sc: "Scenario", plan: "Plan") -> MapSpec | None:
                 numeric = tuple(float(v) for v in values)
         else:
             for j, pt in enumerate(t.get("points", "tables")):
-                p = _Table(pt, f"{t.where} points[{j}]", file)
+                p = _Table(pt, f"{t.where} points[{j}]", where)
                 labels.append(p.get("label", "str"))
                 st = p.get("set", "table", {})
                 sets.append(dict(st))
                 p.done()
         t.done()
         if len(set(labels)) != len(labels):
-            raise ScenarioError(f"{file}: {t.where}: point labels must be unique, got {labels}")
+            raise ScenarioError(f"{where}: {t.where}: point labels must be unique, got {labels}")
         axes.append(MapAxis(name, source, tuple(labels), tuple(sets), numeric))
     if not 1 <= len(axes) <= 2:
         raise mt.err("axes", f"expected one or two [[map.axes]], got {len(axes)}")
@@ -1154,7 +1219,7 @@ def _load_map(extra: "_Table", sc: "Scenario", plan: "Plan") -> MapSpec | None:
         for a, k in zip(axes, combo):
             for path, v in a.sets[k].items():
                 if path in over and over[path] != v:
-                    raise ScenarioError(f"{file}: [map]: axes set {path!r} twice, to "
+                    raise ScenarioError(f"{where}: [map]: axes set {path!r} twice, to "
                                         f"{over[path]!r} and {v!r}")
                 over[path] = v
         points.append((combo, over))
@@ -1169,23 +1234,10 @@ def _load_map(extra: "_Table", sc: "Scenario", plan: "Plan") -> MapSpec | None:
             load_plan(psc)
         except ScenarioError as exc:
             msg = str(exc).removeprefix(f"{file}: ")
-            raise ScenarioError(f"{file}: [map] point {', '.join(labels)!r}: {msg}") from None
+            raise ScenarioError(f"{where}: [map] point {', '.join(labels)!r}: {msg}") from None
         # the point that runs the file as written (its values set to what the file, or its
         # preset, already has) is the scenario itself
         out.append(MapPoint(tuple(combo), labels, over, _fingerprint(psc) == own))
-    protocols = {p.name for p in plan.protocols}
-    labels_ = {m.label for m in plan.methods} | {"raw", "oracle", "oracle_filter"}
-    for prot, meth, metric in metrics:
-        what = f"{prot}.{meth}.{metric}"
-        if prot not in protocols:
-            raise mt.err("metrics", f"{what!r}: no protocol {prot!r}; protocols: "
-                         f"{sorted(protocols)}")
-        if meth not in labels_:
-            raise mt.err("metrics", f"{what!r}: no method labelled {meth!r}; methods: "
-                         f"{sorted(labels_)}")
-        if metric not in METRIC_NAMES:
-            raise mt.err("metrics", f"{what!r}: {metric!r} is not a metric; metrics: "
-                         f"{sorted(METRIC_NAMES)}")
     return MapSpec(tuple(axes), replicates, tuple(out), method_seeds, tuple(metrics))
 
 

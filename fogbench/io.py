@@ -56,6 +56,17 @@ __all__ = ["atomic_write_bytes", "atomic_write_text", "write_run", "read_run", "
            "write_manifest"]
 
 
+def save_figure(fig, path: Path) -> None:
+    """Write a matplotlib figure as a PNG atomically (a crash leaves the old file or none) and
+    close it."""
+    import matplotlib.pyplot as plt
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    atomic_write_bytes(path, buf.getvalue())
+
+
 def atomic_write_text(path: Path, text: str) -> None:
     atomic_write_bytes(path, text.encode())
 

@@ -36,7 +36,7 @@ def fig_map(map_doc: dict, k: int, path: Path) -> bool:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .report import _save
+    from .io import save_figure as _save
 
     c = map_doc["claims"][k]
     pts = map_doc["points"]

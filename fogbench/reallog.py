@@ -1040,7 +1040,10 @@ def _cmd_allan(args) -> int:
         doc["columns"][name] = entry
     try:
         if targets is not None:
-            out.write_text(targets["allan.json"], json.dumps(doc, indent=2, allow_nan=False))
+            from .io import json_ready   # a fit on no degrees of freedom has no p-value: null
+
+            out.write_text(targets["allan.json"],
+                           json.dumps(json_ready(doc), indent=2, allow_nan=False))
             for name, curve, ident, _ in results:
                 out.write(targets[f"allan_{name}.png"],
                           lambda tmp, n=name, c=curve, i=ident: _plot(

@@ -22,7 +22,7 @@ from fogcomp.units import DPH, DPS  # noqa: E402
 
 from .fmt import (KEY_METRICS, ci_text, decimation, fmt, md_table,  # noqa: E402
                   metrics_table, p_better_text)
-from .io import atomic_write_bytes, atomic_write_text, run_arrays, versions  # noqa: E402
+from .io import atomic_write_bytes, atomic_write_text, run_arrays, save_figure as _save, versions  # noqa: E402
 from .outdir import as_final, check_out_dir, discard_part, new_part_dir, replace_dir  # noqa: E402
 from .runner import ScenarioResult, TERM_NAMES, thermal_segments, write_metrics  # noqa: E402
 
@@ -74,13 +74,6 @@ def _styles(labels: list[str], widest: float = 3.2, thinnest: float = 1.0,
             st.update(marker="o", ms=3.5)
         out[lab] = st
     return out
-
-
-def _save(fig, path: Path):
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
-    plt.close(fig)
-    atomic_write_bytes(path, buf.getvalue())
 
 
 def _decimate(t, *ys):

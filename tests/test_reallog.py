@@ -98,6 +98,19 @@ def test_allan_curve_mode_on_fog_curves(tmp_path, capsys):
     assert code == 2 and "--curve-ci" in err
 
 
+def test_allan_curve_of_three_taus_writes_a_null_p_value(tmp_path):
+    """A curve with as many points as a model has terms leaves the fit no degrees of freedom:
+    no p-value (JSON null), not a crash on NaN."""
+    f = tmp_path / "short.csv"
+    f.write_text("# sample_rate_hz=10; n_samples=9\ntau_s,adev_dph\n0.1,214722.2\n"
+                 "0.2,119384.4\n0.4,99867.3\n")
+    code, err = run(["allan", "--curve", f, "--out", tmp_path / "o"])
+    assert code == 0, err
+    doc = json.loads((tmp_path / "o" / "allan.json").read_text())
+    fit = doc["columns"]["curve"]["noise"]["fit"]
+    assert fit["dof"] == 0 and fit["p_value"] is None
+
+
 def test_ferraris_calibrate_and_compensate_imucal_session(tmp_path):
     session, ref = REAL / "imucal_ferraris" / "annotated_session.csv", \
         REAL / "imucal_ferraris" / "example_cal.json"

@@ -9,7 +9,8 @@ Measured in one run, each ``repeats`` times, medians quoted:
 
 then the Allan deviation, the CSV writer, every method, the replicates, and the noise identifier
 (``fogbench.bench_noise``: its accuracy and coverage on records of known noise, and the time to
-identify 10^7 samples).
+identify 10^7 samples), and the device-file round trip (``fogbench.bench_device``: every preset's
+static logs simulated, a device file fitted and compared with the preset).
 """
 
 from __future__ import annotations
@@ -100,6 +101,10 @@ def main(seconds: float = 600.0, repeats: int = 5, noise_seeds: int = 20) -> int
 
     print()
     bench_noise(seeds=noise_seeds)
+    from .bench_device import run as bench_device
+
+    print()
+    bench_device(seeds=noise_seeds)
     return 0
 
 

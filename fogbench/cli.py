@@ -221,14 +221,15 @@ def _cmd_run(args) -> int:
 
 
 def _cmd_check(args) -> int:
-    from .scenario import (RUNNER_SECTIONS, ScenarioError, claim_name, load_map_file, load_plan,
-                           load_scenario, map_file_scenario)
+    from .scenario import (RUNNER_SECTIONS, ScenarioError, claim_name, is_device_file,
+                           load_device_file, load_map_file, load_plan, load_scenario,
+                           map_file_scenario)
 
     bad = 0
     paths = []
     for path in args.scenario:  # a folder: every scenario file in it (as fogbench suite reads)
         if Path(path).is_dir():
-            found = sorted(Path(path).glob("*.toml"))
+            found = sorted(Path(path).glob("*.toml"))   # scenarios/devices/ too, by name
             if not found:
                 print(f"fogbench: error: {path}: no scenario file (*.toml) in this folder",
                       file=sys.stderr)
@@ -246,6 +247,10 @@ def _cmd_check(args) -> int:
                 print(f"{path}: ok: claim map of {target} ({sc.name!r}), "
                       f"{len(spec.points)} point(s) over "
                       f"{', '.join(a.name for a in spec.axes)}")
+                continue
+            if is_device_file(path):   # a device file ([fog] device = "..." names it)
+                vals = load_device_file(path)
+                print(f"{path}: ok: device file, {len(set(vals) - {'source'})} key(s)")
                 continue
             sc = load_scenario(path, extra_sections=RUNNER_SECTIONS)
             plan = load_plan(sc)
@@ -405,6 +410,9 @@ def build_parser() -> argparse.ArgumentParser:
     from .reallog import add_commands
 
     add_commands(sub)  # allan, calibrate, compensate: a user's own recorded logs
+    from .device import add_commands as add_device_commands
+
+    add_device_commands(sub)  # device show, fit, check: a device file from a user's logs
     return p
 
 

@@ -203,12 +203,14 @@ class Scenario:
         label alone)."""
         if self.fog_preset is None:
             out = "given in the scenario file"
+        elif self.fog_preset.startswith("device file "):
+            out = f"{self.fog_preset} ({self.fog_source})"
         else:
             out = f"preset `{self.fog_preset}` ({self.fog_source})"
         by_file = {k: v for k, v in self.fog_changed.items()
                    if f"fog.{k}" not in self.overrides}
         if self.fog_preset is not None and by_file:
-            out += "; set over the preset by the file: " + ", ".join(
+            out += "; set over it by the scenario file: " + ", ".join(
                 f"{k} = {_short(v)}" for k, v in by_file.items())
         if self.overrides:
             out += "; claim-map point: " + ", ".join(
@@ -262,19 +264,27 @@ MISALIGNMENT_LIMIT_MRAD = 100.0
 def _fog(tbl: _Table, fs: float) -> tuple[FogParams, str | None, str, tuple[str, ...],
                                           ThermalModel]:
     preset_name = tbl.get("preset", "str", None)
+    device = tbl.get("device", "str", None)
     values: dict[str, Any] = {}
     source = "given in the scenario file"
+    if preset_name is not None and device is not None:
+        raise tbl.err("device", "give either preset or device (a device file), not both")
     if preset_name is not None:
         presets = load_presets()
         if preset_name not in presets:
             raise tbl.err("preset", f"expected one of {sorted(presets)}, got {preset_name!r}")
         values.update(presets[preset_name])
         source = values.pop("source", f"preset {preset_name}")
+    if device is not None:
+        path = Path(tbl.file).parent / device
+        values.update(load_device_file(path, fs))
+        source = values.pop("source", f"device file {device}")
+        preset_name = f"device file {device}"
     preset_values = dict(values)
-    values.update({k: v for k, v in tbl.data.items() if k != "preset"})
+    values.update({k: v for k, v in tbl.data.items() if k not in ("preset", "device")})
     # the keys the file sets over its preset (or every key, without one): a report names them
     changed = {k: v for k, v in tbl.data.items()
-               if k not in ("preset", "axes", "source") and preset_values.get(k) != v}
+               if k not in ("preset", "device", "axes", "source") and preset_values.get(k) != v}
     merged = _Table(values, tbl.where, tbl.file)
     merged.used.add("source")
     kw: dict[str, Any] = {}
@@ -332,6 +342,46 @@ def _fog(tbl: _Table, fs: float) -> tuple[FogParams, str | None, str, tuple[str,
     thermal = _fog_thermal(merged, fs)
     merged.done()
     return FogParams(**kw), preset_name, source, axes, thermal, changed
+
+
+DEVICE_FILE_REFUSED = ("preset", "device", "axes")   # a scenario's choices, not the device's
+
+
+def load_device_file(path, fs: float | None = None) -> dict:
+    """The [fog] keys of a device file (``sim/presets.toml``'s format for one device: the keys
+    of a scenario's ``[fog]`` table, datasheet units in their names, and ``source``), validated
+    as a [fog] table of its own so that an error names the device file and its key. ``fs``: the
+    scenario's sample rate (the checks that need it: the flicker band below Nyquist); None
+    checks at the highest rate a scenario may have."""
+    file = str(path)
+    if Path(path).is_dir():
+        raise ScenarioError(f"{file}: is a directory, expected a device file (TOML)")
+    doc = _read_toml(path)
+    for k in DEVICE_FILE_REFUSED:
+        if k in doc:
+            raise ScenarioError(f"{file}: key '{k}': a device file holds the device's own keys "
+                                f"only ({k} is the scenario's choice, in its [fog] table)")
+    for k, v in doc.items():
+        if isinstance(v, dict):
+            raise ScenarioError(f"{file}: [{k}]: a device file has no tables, only the keys of "
+                                "a [fog] table")
+    tbl = _Table(dict(doc), "device file", file)
+    tbl.get("source", "str", None)
+    _fog(tbl, 10_000.0 if fs is None else fs)
+    return doc
+
+
+_SCENARIO_TABLES = ("scenario", "runs", "table", "fog", "thermal", "protocols", "methods")
+
+
+def is_device_file(path) -> bool:
+    """Whether a TOML file is meant as a device file: it has none of a scenario's (or a map
+    file's) tables. A file that does not read is not (its scenario check says why)."""
+    try:
+        doc = _read_toml(path)
+    except ScenarioError:
+        return False
+    return not any(k in doc for k in _SCENARIO_TABLES)
 
 
 def _fog_thermal(tbl: _Table, fs: float) -> ThermalModel:
@@ -1146,7 +1196,9 @@ def _load_map(extra: "_Table", sc: "Scenario", plan: "Plan",
     ``metrics`` (``"protocol.method.metric"`` shown at every point) and one or two
     ``[[map.axes]]``, each ``name``, ``source`` (where its range comes from) and either ``key``
     with ``values`` (and optional ``labels``) or ``points``, an array of tables ``{label, set =
-    {"dotted.path" = value, ...}}``. Every point is validated as a scenario of its own.
+    {"dotted.path" = value, ...}, unset = ["dotted.path", ...]}`` (``unset``: keys the point
+    removes, e.g. ``fog.preset`` where it names a device file). Every point is validated as a
+    scenario of its own.
     ``where``: the file errors name (a map file; default the scenario)."""
     import itertools
 
@@ -1203,8 +1255,12 @@ def _load_map(extra: "_Table", sc: "Scenario", plan: "Plan",
             for j, pt in enumerate(t.get("points", "tables")):
                 p = _Table(pt, f"{t.where} points[{j}]", where)
                 labels.append(p.get("label", "str"))
-                st = p.get("set", "table", {})
-                sets.append(dict(st))
+                st = dict(p.get("set", "table", {}))
+                for path in p.get("unset", "strs", []):   # keys the point removes
+                    if path in st:
+                        raise p.err("unset", f"{path!r} is also in set")
+                    st[path] = None
+                sets.append(st)
                 p.done()
         t.done()
         if len(set(labels)) != len(labels):

@@ -38,6 +38,7 @@ __all__ = [
     "AllanDeviation",
     "oadev",
     "oadev_details",
+    "pooled_oadev",
     "NOISE_TERMS",
     "FLICKER_FLOOR_FACTOR",
     "ONE_SIGMA_CI",
@@ -558,6 +559,26 @@ def _model_alpha(taus, model) -> np.ndarray:
     return np.vstack(alphas)[lead, np.arange(t.size)].astype(int)
 
 
+def pooled_oadev(y, fs: float, taus, segments) -> tuple[np.ndarray, np.ndarray]:
+    """(averaging factors m, overlapping Allan deviation) of a rate over its gap-free
+    ``segments`` [start, stop): each piece's squared second differences computed inside it and
+    pooled over the pieces (one piece: :func:`oadev_details`). ``taus`` as there; with several
+    pieces, taken on the longest."""
+    segs = [(int(a), int(b)) for a, b in segments]
+    if len(segs) == 1:
+        d = oadev_details(y[segs[0][0]:segs[0][1]], fs, taus)
+        return d.m, d.adev
+    m_all = _averaging_factors(taus, fs, max(b - a for a, b in segs))
+    sums, counts = np.zeros(m_all.size), np.zeros(m_all.size)
+    for a, b in segs:
+        ok = m_all <= (b - a - 1) // 2
+        if ok.any():
+            dd = oadev_details(y[a:b], fs, taus=m_all[ok] / fs)
+            sums[ok] += dd.adev**2 * dd.n_terms
+            counts[ok] += dd.n_terms
+    return m_all, np.sqrt(sums / counts)
+
+
 def allan_analysis(rate, fs: float, taus=None, *, ci: float = ONE_SIGMA_CI, model=None,
                    segments=None, **identify_options):
     """Overlapping Allan deviation with EDF confidence intervals and the identified noise model.
@@ -603,19 +624,7 @@ def allan_analysis(rate, fs: float, taus=None, *, ci: float = ONE_SIGMA_CI, mode
         raise ValueError(f"rate: {longest} samples give fewer than 3 octave averaging times; at "
                          "least 3 are needed to identify noise terms (record at least 8 "
                          "samples, in practice thousands)")
-    if len(segs) == 1:
-        d = oadev_details(y[segs[0][0]:segs[0][1]], fs, taus)
-        m_all, adev = d.m, d.adev
-    else:
-        m_all = _averaging_factors(taus, fs, longest)
-        sums, counts = np.zeros(m_all.size), np.zeros(m_all.size)
-        for a, b in segs:
-            ok = m_all <= (b - a - 1) // 2
-            if ok.any():
-                dd = oadev_details(y[a:b], fs, taus=m_all[ok] / fs)
-                sums[ok] += dd.adev**2 * dd.n_terms
-                counts[ok] += dd.n_terms
-        adev = np.sqrt(sums / counts)
+    m_all, adev = pooled_oadev(y, fs, taus, segs)
     t = m_all / fs
     if t.shape[0] < 3:
         raise ValueError(f"rate: {longest} samples give only {t.shape[0]} averaging times; at "

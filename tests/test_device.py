@@ -1,0 +1,345 @@
+"""Device files (fogbench.device, fogbench.scenario.load_device_file): a preset shown as one
+runs as the preset does; a fit from simulated static logs recovers the configured keys within
+its intervals; `device check` tells a twin of the right device from a wrong one; the real
+ADIS16405 log; bad input refused naming file and key, nothing written."""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fogbench.bench_device import CASES, round_trip, twin_in_band
+from fogbench.device import (MARKER, StaticLog, check_device, earth_projection, fit_device,
+                             preset_text, twin_curves)
+from fogbench.scenario import ScenarioError, load_device_file, load_scenario
+from fogcomp.allan import allan_analysis
+from fogcomp.units import DPH
+from sim.fog import FogParams, simulate_fog
+from sim.rig import load_presets
+
+from helpers import SMALL_SCENARIO, need_realdata, realdata_dir, run_cli
+
+ADIS = realdata_dir() / "adis16405_static" / "imu1.csv.gz"
+ROUND_TRIP_FAST = ("tactical", "mems_adis16405")     # the rest: slow, and fogbench bench
+
+
+def _load(path):
+    from fogbench.scenario import RUNNER_SECTIONS
+
+    return load_scenario(path, extra_sections=RUNNER_SECTIONS)
+
+
+def _write_log(path: Path, rate: np.ndarray, fs: float) -> Path:
+    t = np.arange(rate.size) / fs
+    with open(path, "w") as f:
+        f.write("time_s,gyro_z_dps\n")
+        for a, b in zip(t, np.degrees(rate)):
+            f.write(f"{a:.6f},{b:.9e}\n")
+    return path
+
+
+def _static(params: FogParams, fs: float, n: int, seed: int) -> np.ndarray:
+    z = np.zeros((n, 3))
+    return simulate_fog(params, fs, z, z, axes=("z",), seed=seed).raw[:, 0]
+
+
+# ---------------------------------------------------------------------------------------------
+# one format: presets, device files, scenarios
+@pytest.mark.parametrize("name", sorted(load_presets()))
+def test_a_preset_shown_as_a_device_file_is_the_preset(name, tmp_path):
+    text = preset_text(name)
+    assert tomllib.loads(text) == load_presets()[name]       # same keys, same values
+    dev = tmp_path / "dev.toml"
+    dev.write_text(text)
+    assert load_device_file(dev) == load_presets()[name]
+    a = tmp_path / "a.toml"
+    b = tmp_path / "b.toml"
+    a.write_text(SMALL_SCENARIO.replace('preset = "tactical"', f'preset = "{name}"'))
+    b.write_text(SMALL_SCENARIO.replace('preset = "tactical"', 'device = "dev.toml"'))
+    sa, sb = _load(a), _load(b)
+    assert sa.fog == sb.fog and sa.thermal_model == sb.thermal_model
+    assert "device file dev.toml" in sb.device and load_presets()[name]["source"] in sb.device
+
+
+def test_scenario_keys_override_a_device_file_and_the_report_names_them(tmp_path):
+    (tmp_path / "dev.toml").write_text(preset_text("tactical"))
+    s = tmp_path / "s.toml"
+    s.write_text(SMALL_SCENARIO.replace('preset = "tactical"',
+                                        'device = "dev.toml"\narw_deg_rt_h = 0.5'))
+    sc = _load(s)
+    assert sc.fog.arw == pytest.approx(0.5 * math.radians(1) / 60)
+    assert "arw_deg_rt_h = 0.5" in sc.device
+
+
+@pytest.mark.parametrize("body, where", [
+    ("arw_deg_rt_h = nan\n", "arw_deg_rt_h"),
+    ("arw_deg_rt_h = -1.0\n", "arw_deg_rt_h"),
+    ("arw_deg_rt_hh = 1.0\n", "arw_deg_rt_hh"),
+    ('preset = "tactical"\n', "preset"),
+    ('axes = ["z"]\n', "axes"),
+    ("[fog]\narw_deg_rt_h = 1.0\n", "[fog]"),
+    ("arw_deg_rt_h = \n", "not valid TOML"),
+])
+def test_bad_device_files_are_refused_naming_file_and_key(tmp_path, body, where):
+    dev = tmp_path / "dev.toml"
+    dev.write_text(body)
+    with pytest.raises(ScenarioError) as e:
+        load_device_file(dev)
+    assert str(dev) in str(e.value) and where in str(e.value)
+    s = tmp_path / "s.toml"
+    s.write_text(SMALL_SCENARIO.replace('preset = "tactical"', 'device = "dev.toml"'))
+    code, out, err = run_cli("check", s)
+    assert code == 2 and str(dev) in err and where in err
+
+
+def test_device_file_not_utf8_missing_or_with_a_preset_is_refused(tmp_path):
+    dev = tmp_path / "dev.toml"
+    dev.write_bytes(b"source = \"caf\xe9\"\n")
+    with pytest.raises(ScenarioError, match="not UTF-8"):
+        load_device_file(dev)
+    s = tmp_path / "s.toml"
+    s.write_text(SMALL_SCENARIO.replace('preset = "tactical"', 'device = "missing.toml"'))
+    with pytest.raises(ScenarioError, match="missing.toml"):
+        _load(s)
+    s.write_text(SMALL_SCENARIO.replace('preset = "tactical"',
+                                        'preset = "tactical"\ndevice = "dev.toml"'))
+    with pytest.raises(ScenarioError, match="not both"):
+        _load(s)
+
+
+# ---------------------------------------------------------------------------------------------
+# fitting
+def _covers(fit, key, true) -> bool:
+    e = fit.entry(key)
+    return e is not None and e.low <= true <= e.high
+
+
+def test_earth_projection_against_the_navigation_frame():
+    """Up at latitude L: Omega sin L; level north: Omega cos L; level east: 0 (an independent
+    statement of the Earth rate in the local level frame)."""
+    om = 7.2921150e-5
+    assert earth_projection(45.0, "up") == pytest.approx(om * math.sqrt(0.5))
+    assert earth_projection(45.0, "down") == pytest.approx(-om * math.sqrt(0.5))
+    assert earth_projection(30.0, "level", 0.0) == pytest.approx(om * math.cos(math.radians(30)))
+    assert abs(earth_projection(30.0, "level", 90.0)) < 1e-15
+
+
+@pytest.mark.parametrize("case", [c for c in CASES if c.preset in ROUND_TRIP_FAST],
+                         ids=lambda c: c.preset)
+def test_round_trip_each_determined_key_within_its_interval_in_60_pct_of_20_seeds(case):
+    """Static logs of a preset (its noise, bias and switch-on bias) simulated, a device file
+    fitted, compared with the preset: every key the fit determines in 5 or more of 20 seeds
+    covers the configured value with its 68 % interval in at least 60 % of them (the issue's
+    criterion; a term the preset does not have counts as configured 0, so a spurious one is a
+    miss). The other presets: ``fogbench bench`` (its round-trip table) and the slow test."""
+    res = round_trip(case, seeds=20)
+    _judge(case, res)
+    # and the twin of one fit: its median Allan deviation inside the preset's 95 % band
+    assert twin_in_band(case) >= 0.9
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("case", [c for c in CASES if c.preset not in ROUND_TRIP_FAST],
+                         ids=lambda c: c.preset)
+def test_round_trip_of_the_other_presets(case):
+    _judge(case, round_trip(case, seeds=20))
+    assert twin_in_band(case) >= 0.9
+
+
+def _judge(case, res):
+    assert "arw_deg_rt_h" in res and "bias_dph" in res and "switch_on_bias_dph" in res, res
+    for key, (det, cov) in res.items():
+        if det >= 5:
+            assert cov / det >= 0.6, (case.preset, key, det, cov)
+
+
+def test_switch_on_spread_removes_the_noise_of_each_mean():
+    """No switch-on change at all, noisy short logs: the fitted repeatability is small against
+    the spread of the raw means (the part each mean's own noise explains is taken out)."""
+    params = FogParams(arw=0.5 * math.radians(1) / 60)
+    logs = [StaticLog(f"s{k}", _static(params, 10.0, 600, k), 10.0) for k in range(12)]
+    fit = fit_device(logs)
+    raw_sd = np.std([np.mean(s.rate) for s in logs], ddof=1) / DPH
+    sw = fit.entry("switch_on_bias_dph")
+    assert sw.low == 0.0 and sw.value < 0.6 * raw_sd
+
+
+def test_three_power_ons_warn_that_they_bound_the_repeatability_poorly():
+    params = FogParams(arw=0.03 * math.radians(1) / 60, switch_on_bias_sigma=0.5 * DPH)
+    logs = [StaticLog(f"s{k}", _static(params, 10.0, 3600, k), 10.0) for k in range(3)]
+    fit = fit_device(logs)
+    assert any("3 power-ons bound the switch-on repeatability poorly" in n for n in fit.notes)
+    assert "switch_on_bias_dph" in fit.values()
+
+
+# ---------------------------------------------------------------------------------------------
+# the command line
+def test_fit_cli_writes_a_device_file_that_a_scenario_runs(tmp_path):
+    params = FogParams(arw=0.05 * math.radians(1) / 60, bias=2.0 * DPH)
+    earth = earth_projection(45.0, "up")      # the log holds the Earth rate, up at 45 deg
+    log = _write_log(tmp_path / "static.csv", _static(params, 10.0, 36_000, 3) + earth, 10.0)
+    dev = tmp_path / "my.toml"
+    code, out, err = run_cli("device", "fit", "--static", log, "--latitude-deg", "45",
+                             "--input-axis", "up", "--out", dev)
+    assert code == 0, err
+    text = dev.read_text()
+    assert text.startswith(MARKER) and "switch_on_bias_dph: default" in text
+    doc = load_device_file(dev)
+    # 2 deg/h of bias plus the Earth rate's 10.6 deg/h: the fit takes the Earth rate out
+    assert doc["bias_dph"] == pytest.approx(2.0, abs=0.3)
+    assert doc["arw_deg_rt_h"] == pytest.approx(0.05, rel=0.1)
+    s = tmp_path / "s.toml"
+    s.write_text(SMALL_SCENARIO.replace('preset = "tactical"', 'device = "my.toml"'))
+    code, out, err = run_cli("check", s)
+    assert code == 0, err
+    # a second fit over it only with --overwrite; never over a file it did not write
+    code, _, err = run_cli("device", "fit", "--static", log, "--out", dev)
+    assert code == 2 and "--overwrite" in err
+    code, _, err = run_cli("device", "fit", "--static", log, "--out", dev, "--overwrite")
+    assert code == 0, err
+    other = tmp_path / "mine.toml"
+    other.write_text("# my notes\n")
+    code, _, err = run_cli("device", "fit", "--static", log, "--out", other, "--overwrite")
+    assert code == 2 and "not a device file written by fogbench device fit" in err
+    assert other.read_text() == "# my notes\n"
+
+
+@pytest.mark.parametrize("extra, msg", [
+    ([], "give at least one --static"),
+    (["--static", "{log}", "--latitude-deg", "45"], "--input-axis"),
+    (["--static", "{log}", "--latitude-deg", "95", "--input-axis", "up"], "--latitude-deg"),
+    (["--static", "{log}", "--input-axis", "up"], "only with --latitude-deg"),
+    (["--static", "{log}", "--latitude-deg", "45", "--input-axis", "level"], "--heading-deg"),
+    (["--static", "{log}", "--ci", "1.5"], "--ci"),
+    (["--static", "{missing}"], "missing.csv"),
+    (["--static", "{three}"], "--axis"),
+    (["--static", "{log}", "--out", "{log}"], "input"),
+])
+def test_fit_cli_refuses_bad_input_and_writes_nothing(tmp_path, extra, msg):
+    log = _write_log(tmp_path / "static.csv", _static(FogParams(arw=1e-4), 10.0, 200, 1), 10.0)
+    three = tmp_path / "three.csv"
+    three.write_text("time_s,gyro_x_dps,gyro_y_dps,gyro_z_dps\n" + "".join(
+        f"{i / 10:.1f},{np.sin(i)},{np.cos(i)},{np.sin(2 * i)}\n" for i in range(200)))
+    before = sorted(p.name for p in tmp_path.iterdir())
+    args = [a.format(log=log, missing=tmp_path / "missing.csv", three=three) for a in extra]
+    if "--out" not in args:
+        args += ["--out", str(tmp_path / "out" / "dev.toml")]
+    code, _, err = run_cli("device", "fit", *args)
+    assert code == 2 and msg in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == before
+    assert log.read_text().startswith("time_s,gyro_z_dps")
+
+
+def test_show_prints_a_preset_and_refuses_an_unknown_name(tmp_path):
+    code, out, _ = run_cli("device", "show", "navigation")
+    assert code == 0 and tomllib.loads(out) == load_presets()["navigation"]
+    code, _, err = run_cli("device", "show", "no_such")
+    assert code == 2 and "tactical" in err
+
+
+# ---------------------------------------------------------------------------------------------
+# check
+def test_check_tells_the_right_twin_from_a_wrong_one():
+    """A log of a device: its own twin agrees at (nearly) every averaging time; a twin with
+    three times the ARW does not at the short ones (where the ARW shows)."""
+    fs, n = 10.0, 36_000
+    right = FogParams(arw=0.05 * math.radians(1) / 60, bias_instability=0.5 * DPH,
+                      bi_band=(1e-6, 1.0))
+    wrong = FogParams(arw=0.15 * math.radians(1) / 60, bias_instability=0.5 * DPH,
+                      bi_band=(1e-6, 1.0))
+    y = _static(right, fs, n, 77)
+    curve, _ = allan_analysis(y, fs, ci=0.95)
+    good = check_device(curve, twin_curves(right, fs, [(0, n)], curve.taus, 20, seed=1))
+    bad = check_device(curve, twin_curves(wrong, fs, [(0, n)], curve.taus, 20, seed=1))
+    assert good["share"] >= 0.9
+    assert bad["share"] <= 0.6 and not bad["agree"][:4].any()
+
+
+def test_check_cli_writes_its_folder_and_refuses_a_bad_device(tmp_path):
+    params = FogParams(arw=0.05 * math.radians(1) / 60)
+    log = _write_log(tmp_path / "static.csv", _static(params, 10.0, 6000, 3), 10.0)
+    dev = tmp_path / "my.toml"
+    code, _, err = run_cli("device", "fit", "--static", log, "--out", dev)
+    assert code == 0, err
+    code, out, err = run_cli("device", "check", dev, log, "--replicates", "10",
+                             "--out", tmp_path / "chk")
+    assert code == 0, err
+    assert (tmp_path / "chk" / "device_check.json").exists()
+    assert (tmp_path / "chk" / "device_check.png").stat().st_size > 10_000
+    assert "agree within their intervals at" in out
+    bad = tmp_path / "bad.toml"
+    bad.write_text("arw_deg_rt_h = 'a lot'\n")
+    code, _, err = run_cli("device", "check", bad, log, "--out", tmp_path / "chk2")
+    assert code == 2 and str(bad) in err and "arw_deg_rt_h" in err
+    assert not (tmp_path / "chk2").exists()
+
+
+# ---------------------------------------------------------------------------------------------
+# the real ADIS16405 log
+def test_adis16405_twin_agrees_with_the_real_curve_except_where_the_sensor_filters(tmp_path):
+    """The loop on a real log: a device file fitted to the ADIS16405 static log (x axis, noise
+    fitted from 0.04 s on), its twin simulated under the log's conditions. Measured (README):
+    the two Allan curves agree within their intervals at 74 % of the averaging times, short of
+    the issue's 90 %: at 0.01-0.04 s the log lies below the white-noise line (17 % at 0.01 s:
+    the sensor's own low-pass filtering, which the error model does not have), and around
+    0.64 s it is 2 % above the twin where its interval is +-0.9 %. From 1 s on they agree."""
+    need_realdata(ADIS)
+    dev = tmp_path / "adis.toml"
+    code, out, err = run_cli("device", "fit", "--static", ADIS, "--axis", "x", "--min-tau-s",
+                             "0.04", "--out", dev)
+    assert code == 0, err
+    doc = load_device_file(dev)
+    assert 2.2 <= doc["arw_deg_rt_h"] <= 2.7        # realdata README: 2.3-2.6 deg/sqrt(h)
+    assert 20 <= doc["bias_instability_dph"] <= 40   # realdata README: about 27 on x
+    code, out, err = run_cli("device", "check", dev, ADIS, "--axis", "x", "--replicates", "20",
+                             "--out", tmp_path / "chk")
+    assert code == 0, err
+    import json
+
+    res = json.loads((tmp_path / "chk" / "device_check.json").read_text())
+    tau, agree = np.array(res["tau_s"]), np.array(res["agree"])
+    assert res["share_agree"] >= 0.7
+    assert agree[tau >= 1.0].all()
+    low = np.array(res["log_adev_dph"]) < np.array(res["twin_low_dph"])
+    assert low[tau <= 0.04].all()          # the log below the twin where the sensor filters
+
+
+def test_a_map_point_on_a_device_file_is_the_scenario_with_that_device(tmp_path):
+    """`unset = ["fog.preset"]` with `set = {"fog.device" = ...}`: the point's device is the
+    device file's, as a plain scenario naming it gives; `fogbench check` takes device files."""
+    from fogbench.scenario import load_plan
+
+    (tmp_path / "dev.toml").write_text(preset_text("navigation"))
+    s = tmp_path / "s.toml"
+    s.write_text(SMALL_SCENARIO + '''
+[map]
+replicates = 2
+[[map.axes]]
+name = "device"
+source = "test"
+[[map.axes.points]]
+label = "preset"
+[[map.axes.points]]
+label = "file"
+set = { "fog.device" = "dev.toml" }
+unset = ["fog.preset"]
+''')
+    plan = load_plan(_load(s))
+    from fogbench.scenario import RUNNER_SECTIONS
+
+    point = next(p for p in plan.map.points if p.labels == ("file",))
+    at_point = load_scenario(s, extra_sections=RUNNER_SECTIONS, overrides=point.overrides)
+    plain = tmp_path / "plain.toml"
+    plain.write_text(SMALL_SCENARIO.replace('preset = "tactical"', 'device = "dev.toml"'))
+    assert at_point.fog == _load(plain).fog != _load(s).fog
+    code, out, err = run_cli("check", tmp_path / "dev.toml", s)
+    assert code == 0, err
+    assert "ok: device file" in out and "a claim map of 2 point(s)" in out
+    s.write_text(s.read_text().replace('unset = ["fog.preset"]',
+                                       'unset = ["fog.preset", "fog.device"]'))
+    code, _, err = run_cli("check", s)
+    assert code == 2 and "unset" in err and "also in set" in err

@@ -128,6 +128,7 @@ class DeviceFit:
     notes: list = field(default_factory=list)
     ci: float = 0.683
     inputs: list = field(default_factory=list)
+    options: list = field(default_factory=list)   # the fit's command-line options
 
     def values(self) -> dict:
         return {e.key: e.value for e in self.entries}
@@ -138,19 +139,29 @@ class DeviceFit:
     def to_toml(self) -> str:
         out = [MARKER + " (this line lets a later fit with --overwrite replace the file)",
                "# from: " + ", ".join(self.inputs),
+               "# options: " + (" ".join(self.options) or "(none)"),
                f"# intervals: {self.ci:.1%} (the identifier's, or over the power-ons)"]
         for n in self.notes:
             out.append(f"# NOTE: {n}")
         out.append(f"source = {json.dumps('fitted by fogbench device fit to ' + ', '.join(self.inputs))}")
         for e in self.entries:
-            iv = "" if e.low is None else f" [{e.low:.4g}, {e.high:.4g}]"
+            iv = "" if e.low is None else f" [{_interval_text(e.low, e.high)}]"
             out.append(f"# {e.key}: {e.source}{iv}")
             out.append(f"{e.key} = {_toml_value(e.value)}")
         out.append("# Not determined by these logs (the simulator's default applies):")
         for k, why in self.undetermined.items():
-            default = _NEEDS.get(k, ("default", ""))[0]
+            default = _NEEDS.get(k, ("the simulator's (sim.fog.FogParams, sim.thermal)",))[0]
             out.append(f"#   {k}: default {default}; {why}")
         return "\n".join(out) + "\n"
+
+
+def _interval_text(lo: float, hi: float) -> str:
+    """Both bounds with the digits that tell them apart (at least 4 significant)."""
+    width = abs(hi - lo)
+    scale = max(abs(lo), abs(hi))
+    digits = 4 if width == 0 or scale == 0 else max(4, int(math.ceil(
+        math.log10(scale / width))) + 2)
+    return f"{lo:.{min(digits, 12)}g}, {hi:.{min(digits, 12)}g}"
 
 
 def _toml_value(v) -> str:
@@ -169,6 +180,7 @@ class StaticLog:
     rate: np.ndarray
     fs: float
     segments: tuple = ()
+    column: str = ""
 
 
 def earth_projection(latitude_deg: float, input_axis: str, heading_deg: float = 0.0) -> float:
@@ -223,7 +235,9 @@ def fit_device(static: list, curve=None, earth_rate: float | None = None,
         fit.inputs.append(f"Allan curve {name} ({n} samples at {fs:g} Hz)")
     models = {}
     for log in static:
-        fit.inputs.append(f"static log {log.name} ({log.rate.size} samples at {log.fs:g} Hz)")
+        col = f", column {log.column}" if log.column else ""
+        fit.inputs.append(f"static log {log.name} ({log.rate.size} samples at {log.fs:g} Hz"
+                          f"{col})")
     if static:
         longest = max(static, key=lambda s: s.rate.size)
         _, models[longest.name] = allan_analysis(
@@ -244,7 +258,8 @@ def fit_device(static: list, curve=None, earth_rate: float | None = None,
             T = log.rate.size / log.fs
             biases.append(b)
             sig.append(float(ref.model_adev(np.array([T]))[0]))
-        corr = "less the Earth rate's projection" if earth_rate is not None else \
+        corr = (f"less the Earth rate's projection on the input axis "
+                f"({earth_rate / DPH:.6g} deg/h)") if earth_rate is not None else \
             "NOT corrected for the Earth rate (give --latitude-deg and --input-axis)"
         k = len(biases)
         b = np.array(biases) / DPH
@@ -279,7 +294,22 @@ def fit_device(static: list, curve=None, earth_rate: float | None = None,
     for key, (_, why) in _NEEDS.items():
         if fit.entry(key) is None and key not in fit.undetermined:
             fit.undetermined[key] = "needs " + why
+    for key in _all_fog_keys():
+        if fit.entry(key) is None and key not in fit.undetermined:
+            fit.undetermined[key] = "not measured by these logs"
     return fit
+
+
+def _all_fog_keys() -> list:
+    """Every key of a [fog] table a device file may hold (the scenario's validation)."""
+    from .scenario import _FOG_KEYS
+
+    return list(_FOG_KEYS) + [
+        "bias_instability_band_hz", "bias_instability_per_decade", "g_sens_dph_per_g",
+        "g2_sens_dph_per_g2", "misalignment_mrad", "disabled_terms", "temp_sensor_location",
+        "temp_sensor_time_constant_s", "temp_sensor_noise_c", "temp_sensor_resolution_c",
+        "temp_sensor_rate_hz", "temp_rate_window_s", "housing_time_constant_s",
+        "coil_time_constant_s"]
 
 
 def _octaves(log: StaticLog, min_tau: float | None):
@@ -446,7 +476,7 @@ def _read_static(path, args) -> tuple[StaticLog, object]:
     if np.ptp(v) == 0:
         raise LogError(f"{path}: column {log.sources[ch]!r} is constant: a stuck channel has no "
                        "noise to fit")
-    return StaticLog(str(path), v, log.fs, tuple(log.segments)), log
+    return StaticLog(str(path), v, log.fs, tuple(log.segments), log.sources[ch]), log
 
 
 def _cmd_fit(args) -> int:
@@ -467,8 +497,26 @@ def _cmd_fit(args) -> int:
         if args.input_axis == "level" and args.heading_deg is None:
             raise LogError("--input-axis level: give --heading-deg (the input axis's heading "
                            "from north)")
+        if args.heading_deg is not None:
+            if args.input_axis != "level":
+                raise LogError("--heading-deg: only with --input-axis level (a vertical axis "
+                               "has no heading)")
+            if not (math.isfinite(args.heading_deg) and -360 <= args.heading_deg <= 360):
+                raise LogError(f"--heading-deg: expected -360 to 360, got "
+                               f"{_fmt_number(args.heading_deg)}")
     elif args.input_axis is not None or args.heading_deg is not None:
         raise LogError("--input-axis/--heading-deg: only with --latitude-deg")
+    if not args.curve:
+        for flag, v in (("--samples", args.samples), ("--curve-ci", args.curve_ci)):
+            if v is not None:
+                raise LogError(f"{flag}: only with --curve")
+    seen = {}
+    for p in args.static:   # the same log twice is not two power-ons
+        key = str(Path(p).resolve())
+        if key in seen:
+            raise LogError(f"--static {p}: given twice (also as {seen[key]}); each static log "
+                           "is one power-on")
+        seen[key] = p
     if args.min_tau_s is not None and not (args.min_tau_s > 0 and math.isfinite(args.min_tau_s)):
         raise LogError(f"--min-tau-s: expected a positive number of seconds, got "
                        f"{_fmt_number(args.min_tau_s)}")
@@ -505,20 +553,32 @@ def _cmd_fit(args) -> int:
         fit = fit_device(statics, curve, earth, ci, args.min_tau_s)
     except ValueError as exc:
         raise LogError(f"device fit: {exc}") from None
+    opts = [f"--axis {args.axis}"] if args.axis else []
+    opts += [f"{flag} {v}" for flag, v in (
+        ("--min-tau-s", args.min_tau_s), ("--latitude-deg", args.latitude_deg),
+        ("--input-axis", args.input_axis), ("--heading-deg", args.heading_deg),
+        ("--ci", args.ci), ("--gaps", args.gaps if args.gaps != "refuse" else None),
+        ("--fs", args.fs), ("--samples", args.samples), ("--curve-ci", args.curve_ci))
+        if v is not None]
+    opts += [f"--column {c}" for c in (args.column or [])]
+    fit.options = opts
     text = fit.to_toml()
     from .scenario import ScenarioError, load_device_file
 
     try:
         out.write_text(target, text)
+        tmp = out.pending[-1][0]
         try:   # what was written reads back as a device file (the scenario's checks)
-            load_device_file(out.pending[-1][0])
+            load_device_file(tmp)
         except ScenarioError as exc:
-            raise LogError(f"device fit: the fitted file would not load: {exc}") from None
+            raise LogError(f"device fit: a fitted value is out of the range a device file "
+                           f"allows ({str(exc).replace(tmp, str(target))}); check the log's "
+                           "units (the column's unit suffix) and sample rate") from None
         out.commit()
     finally:
         out.discard()
     for e in fit.entries:
-        iv = "" if e.low is None else f"  [{e.low:.4g}, {e.high:.4g}]"
+        iv = "" if e.low is None else f"  [{_interval_text(e.low, e.high)}]"
         print(f"{e.key:<36} {_toml_value(e.value):>14}{iv}")
     for k, why in fit.undetermined.items():
         print(f"{k:<36} {'-':>14}  {why}")
@@ -551,6 +611,8 @@ def _device_params(path, fs: float):
 def _cmd_check(args) -> int:
     from fogcomp.allan import allan_analysis
 
+    if not 0 <= args.seed < 2**31:
+        raise LogError(f"--seed: expected a whole number from 0 to 2^31 - 1, got {args.seed}")
     if not 5 <= args.replicates <= MAX_CHECK_REPLICATES:
         raise LogError(f"--replicates: expected 5 (the fewest for a 95 % band) to "
                        f"{MAX_CHECK_REPLICATES}, got {args.replicates}")
@@ -604,6 +666,10 @@ def _cmd_check(args) -> int:
     with Progress(args.replicates, "twin") as bar:
         twin = twin_curves(params, fs, segments, curve.taus, args.replicates,
                            seed=args.seed, progress=lambda r: bar.advance())
+    if not np.all(np.isfinite(twin)) or np.all(twin == 0):
+        raise LogError(f"{args.device}: the device's twin at rest has no noise (every Allan "
+                       "deviation zero or undefined): a device file without noise terms has "
+                       "nothing to compare with a log")
     res = check_device(curve, twin)
     doc = {"format": "fogbench-device-check", "version": 1, "device": str(args.device),
            "log" if args.log is not None else "curve": str(src), "fs_hz": fs,

@@ -8,6 +8,7 @@ The format is documented in the README ("Scenario files").
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import re
@@ -277,7 +278,12 @@ def _fog(tbl: _Table, fs: float) -> tuple[FogParams, str | None, str, tuple[str,
         source = values.pop("source", f"preset {preset_name}")
     if device is not None:
         path = Path(tbl.file).parent / device
-        values.update(load_device_file(path, fs))
+        if not device.strip():
+            raise tbl.err("device", "expected the path of a device file, got an empty string")
+        try:
+            values.update(load_device_file(path, fs))
+        except ScenarioError as exc:   # named from the scenario: which file asked for it
+            raise tbl.err("device", f"{device!r} ({path}): {exc}") from None
         source = values.pop("source", f"device file {device}")
         preset_name = f"device file {device}"
     preset_values = dict(values)
@@ -571,8 +577,16 @@ def load_scenario(path: str | Path, extra_sections: tuple[str, ...] = (),
     ambient = sc.get("ambient_c", "float", 20.0, lo=-80.0, hi=150.0)
     sc.done()
     table = _table_cfg(_Table(top.get("table", "table", {}), "[table]", file))
-    fog, preset, source, axes, thermal_model, changed = _fog(
-        _Table(top.get("fog", "table"), "[fog]", file), fs)
+    fog_tbl = _Table(top.get("fog", "table"), "[fog]", file)
+    fog, preset, source, axes, thermal_model, changed = _fog(fog_tbl, fs)
+    device = fog_tbl.data.get("device")
+    if isinstance(device, str):   # the device file's text goes with the scenario's: a digest
+        # (--resume), the copy in a run's folder and the report hold what the run ran
+        dpath = path.parent / device
+        draw = decode_text(dpath.read_bytes(), str(dpath))
+        text = text + (f"\n# [fog] device = {json.dumps(device)}: that file's text, as this run "
+                       f"read it (sha256 {hashlib.sha256(draw.encode()).hexdigest()}):\n"
+                       + "".join(f"#   {ln}\n" for ln in draw.splitlines()))
     default_thermal = None
     if top.has("thermal"):
         default_thermal = _thermal(_Table(top.get("thermal", "table"), "[thermal]", file))

@@ -271,6 +271,9 @@ def test_check_cli_writes_its_folder_and_refuses_a_bad_device(tmp_path):
     assert (tmp_path / "chk" / "device_check.json").exists()
     assert (tmp_path / "chk" / "device_check.png").stat().st_size > 10_000
     assert "agree within their intervals at" in out
+    for r in ("3", "100000000"):      # too few for a band; more than any check needs
+        code, _, err = run_cli("device", "check", dev, log, "--replicates", r)
+        assert code == 2 and "--replicates" in err
     bad = tmp_path / "bad.toml"
     bad.write_text("arw_deg_rt_h = 'a lot'\n")
     code, _, err = run_cli("device", "check", bad, log, "--out", tmp_path / "chk2")
@@ -343,3 +346,25 @@ unset = ["fog.preset"]
                                        'unset = ["fog.preset", "fog.device"]'))
     code, _, err = run_cli("check", s)
     assert code == 2 and "unset" in err and "also in set" in err
+
+
+def test_a_run_keeps_the_device_it_ran_and_resume_refuses_an_edited_one(tmp_path):
+    """The device file's text goes with the scenario's: into the run folder's scenario.toml,
+    and into the digest --resume compares, so an edited device file is refused before any
+    work; an error in the device file names the scenario that asked for it."""
+    dev = tmp_path / "dev.toml"
+    dev.write_text(preset_text("tactical"))
+    s = tmp_path / "s.toml"
+    s.write_text(SMALL_SCENARIO.replace('preset = "tactical"', 'device = "dev.toml"'))
+    out = tmp_path / "run"
+    code, _, err = run_cli("run", s, "--out", out, "--replicates", "2", "--no-recording")
+    assert code == 0, err
+    kept = (out / "scenario.toml").read_text()
+    assert "arw_deg_rt_h = 0.03" in kept and "sha256" in kept
+    dev.write_text(preset_text("tactical").replace("arw_deg_rt_h = 0.03", "arw_deg_rt_h = 0.06"))
+    code, _, err = run_cli("run", s, "--out", out, "--replicates", "3", "--resume",
+                           "--no-recording")
+    assert code == 2 and "Traceback" not in err, err
+    dev.write_text("arw_deg_rt_h = -1.0\n")
+    code, _, err = run_cli("check", s)
+    assert code == 2 and str(s) in err and "[fog] key 'device'" in err and str(dev) in err

@@ -75,7 +75,16 @@ def _files(root: Path) -> set[str]:
     return {str(p.relative_to(root)) for p in root.rglob("*")}
 
 
+def _with_devices(folder: Path) -> None:
+    """The device files scenarios name (``[fog] device = "devices/..."``) beside the copies."""
+    import shutil
+
+    if not (folder / "devices").exists():
+        shutil.copytree(ROOT / "scenarios" / "devices", folder / "devices")
+
+
 def check_mutant(data: bytes, tmp: Path, simulate: bool = False) -> int:
+    _with_devices(tmp)
     p = tmp / "mutant.toml"
     p.write_bytes(data)
     before = _files(tmp)
@@ -118,6 +127,7 @@ def test_the_fuzzer_reaches_refusals_and_loads():
     import tempfile
 
     with tempfile.TemporaryDirectory() as d:
+        _with_devices(Path(d))
         for name, text in SEEDS.items():
             p = Path(d) / name
             p.write_text(text)

@@ -259,6 +259,9 @@ def summary_markdown(results: list[dict], plans: dict, out: Path, violations: li
                 for c in mp["claims"]:
                     tag = " (in-sample)" if c["in_sample"] else ""
                     L.append(f"- \"{c['text']}\" — `{c['protocol']}`{tag}: {c['sentence']}.")
+                if not mp["claims"]:
+                    L.append(f"- no claims to map; the metrics at every point: "
+                             f"[its report]({name}/report.md#metrics-at-every-point).")
                 L.append("")
             if mc["rankings"]:
                 L += ["Rankings against the paper's table:", ""]

@@ -16,11 +16,14 @@ What a fit determines (``fit_device``):
   log; the bias (the logs' mean rate less the Earth rate's projection on the input axis, when
   the latitude is given); with two or more logs of separate power-ons the switch-on bias
   repeatability (their spread less the part each mean's own noise explains);
-- an Allan curve (``--curve``): the noise terms only.
+- an Allan curve (``--curve``): the noise terms only;
+- a thermal log (``--thermal``: a constant rate through a chamber program, with the temperature
+  sensor): the temperature terms and the coil's lag behind the sensor
+  (:mod:`fogbench.device_thermal`), weighted by the noise model of the static logs or curve.
 
-Thermal and multi-position logs are not fitted here yet (``fogbench calibrate`` with
-``poly_temp``, ``model_lstsq`` or ``flnn_lstsq`` fits those models on a log; their keys are
-listed as undetermined).
+Multi-position and centrifuge logs are not fitted here yet (``fogbench calibrate`` with
+``model_lstsq`` or ``flnn_lstsq`` fits those models on a log; their keys are listed as
+undetermined).
 """
 
 from __future__ import annotations
@@ -74,12 +77,11 @@ _NEEDS = {
     "g2_sens_dph_per_g2": ("[0, 0, 0, 0, 0, 0]", "a centrifuge or multi-position log (not "
                            "fitted here yet)"),
     "misalignment_mrad": ("zero", "a rate-table log about three axes (not fitted here yet)"),
-    "temp_coeff_dph_per_c": ("0", "a thermal log with a reference (fogbench calibrate "
-                             "poly_temp; not fitted here yet)"),
-    "temp_coeff2_dph_per_c2": ("0", "a thermal log (not fitted here yet)"),
-    "temp_rate_coeff_dph_per_c_per_min": ("0", "a thermal log with ramps (not fitted here yet)"),
-    "coil_time_constant_s": ("600", "a thermal log with the chamber program (not fitted here "
-                             "yet)"),
+    "temp_coeff_dph_per_c": ("0", "a thermal log (--thermal)"),
+    "temp_coeff2_dph_per_c2": ("0", "a thermal log (--thermal)"),
+    "temp_rate_coeff_dph_per_c_per_min": ("0", "a thermal log with ramps (--thermal)"),
+    "temp_cross_coeff_dph_per_c_per_c_per_min": ("0", "a thermal log with ramps (--thermal)"),
+    "coil_time_constant_s": ("600", "a thermal log whose sensor the coil lags (--thermal)"),
 }
 
 
@@ -196,7 +198,8 @@ def earth_projection(latitude_deg: float, input_axis: str, heading_deg: float = 
 
 
 def fit_device(static: list, curve=None, earth_rate: float | None = None,
-               ci: float | None = None, min_tau: float | None = None) -> DeviceFit:
+               ci: float | None = None, min_tau: float | None = None,
+               thermal=None) -> DeviceFit:
     """A device file's keys from static logs and/or an Allan curve.
 
     Parameters
@@ -214,6 +217,10 @@ def fit_device(static: list, curve=None, earth_rate: float | None = None,
     min_tau : float, optional
         Shortest averaging time the noise terms are fitted on, s (default: every octave from
         one sample): leaves out the averaging times a sensor's own low-pass filter shapes.
+    thermal : fogbench.device_thermal.ThermalLog, optional
+        A record at a constant rate through a temperature program: the temperature terms and
+        the coil's lag (:func:`fogbench.device_thermal.fit_thermal`, weighted by the noise
+        model the static logs or the curve gave; one of them is needed).
     """
     from scipy.stats import chi2, t as student_t
 
@@ -291,6 +298,11 @@ def fit_device(static: list, curve=None, earth_rate: float | None = None,
                 fit.notes.append(f"{k} power-ons bound the switch-on repeatability poorly: "
                                  f"{math.sqrt(excess):.3g} deg/h, interval [{lo:.3g}, {hi:.3g}] "
                                  "deg/h; log more power-ons")
+    if thermal is not None:
+        if model is None:
+            raise ValueError("--thermal: the fit weighs the thermal log by the noise model of "
+                             "a static log or an Allan curve; give --static or --curve too")
+        _thermal_entries(fit, thermal, ci, bias_given=bool(static), model=model)
     for key, (_, why) in _NEEDS.items():
         if fit.entry(key) is None and key not in fit.undetermined:
             fit.undetermined[key] = "needs " + why
@@ -298,6 +310,78 @@ def fit_device(static: list, curve=None, earth_rate: float | None = None,
         if fit.entry(key) is None and key not in fit.undetermined:
             fit.undetermined[key] = "not measured by these logs"
     return fit
+
+
+def _thermal_noise(model, fs: float):
+    """FogParams of the noise a thermal fit weighs by: the identified terms at their values
+    and the terms the record only bounds at their 95 % upper bounds (a rate random walk a
+    short static log cannot show still wanders through a long thermal run: leaving it out
+    would make the temperature terms' intervals far too narrow)."""
+    from sim.fog import FogParams
+
+    def val(term):
+        t = model.term(term)
+        if t.status == "identified":
+            return t.value
+        return t.bound if t.status == "upper bound" and t.bound is not None else 0.0
+
+    kw = dict(arw=val("N"), bias_instability=val("B"), rrw=val("K"),
+              quantization=val("Q") * math.sqrt(12.0), bi_band=(1e-6, min(BAND_HIGH_HZ, fs / 2)))
+    gms = sorted((t for t in model.gm_terms if t.status == "identified"), key=lambda t: -t.value)
+    if gms:
+        kw.update(gm_drift=gms[0].value, gm_time_constant=gms[0].tau)
+    return FogParams(**kw)
+
+
+def _thermal_entries(fit: DeviceFit, log, ci: float, bias_given: bool, model) -> None:
+    from .device_thermal import BLOCK_S, KEYS, RATE_WINDOW_S, T_REF_C, fit_thermal
+
+    col = f", column {log.column}" if log.column else ""
+    fit.inputs.append(f"thermal log {log.name} ({log.rate.size} samples at {log.fs:g} Hz"
+                      f"{col}; {np.min(log.temp):.3g} to {np.max(log.temp):.3g} deg C)")
+    noise = _thermal_noise(model, log.fs)
+    th = fit_thermal(log, noise, ci)
+    tau, lo, hi, bounded = th["lag"]
+    lo95, hi95, bounded95 = th["lag95"]
+    how = (f"generalised least squares on {BLOCK_S:g} s means of {log.name} (bias + T + T^2 + "
+           "dT/dt + T dT/dt of the coil), weighted by the fitted noise model (terms the "
+           "record only bounds at their 95 % bounds); interval the "
+           f"union over the coil lags the residual allows ({lo:.3g} to {hi:.3g} s)")
+    fit.entries.append(Entry("temp_ref_c", T_REF_C, None, None,
+                             "chosen: the temperature terms' reference"))
+    for key, _ in KEYS:
+        v, a, b = th[key]
+        fit.entries.append(Entry(key, v, a, b, how))
+    if not bias_given:
+        v, a, b = th["bias_at_ref_dph"]
+        fit.entries.append(Entry("bias_dph", v, a, b, f"the thermal fit's constant at "
+                                 f"{T_REF_C:g} deg C ({log.name}; its rate, Earth rate "
+                                 "included, is taken as the reference)"))
+    if lo95 == 0.0 and hi95 <= RATE_WINDOW_S:
+        fit.entries.append(Entry("temp_sensor_location", "coil", None, None,
+                                 f"the residual of {log.name} rejects (at 95 %) every lag "
+                                 f"between sensor and coil beyond {hi95:.3g} s (no lag the "
+                                 "record can tell from none)"))
+        fit.undetermined["coil_time_constant_s"] = (
+            "the sensor reads the coil: its lag behind the chamber does not enter the terms")
+    elif bounded95 and lo95 > 0.0:
+        fit.entries.append(Entry("temp_sensor_location", "housing", None, None,
+                                 f"the coil lags the sensor in {log.name} (no lag rejected at "
+                                 "95 %; the lag below)"))
+        fit.entries.append(Entry("coil_time_constant_s", tau, lo, hi,
+                                 "the coil's first-order lag behind the sensor with the "
+                                 "smallest generalised residual; chi-square profile interval"))
+        fit.undetermined["housing_time_constant_s"] = (
+            "the housing's lag behind the chamber: the log holds no chamber temperature")
+    else:
+        fit.undetermined["coil_time_constant_s"] = (
+            f"{log.name} does not tell where the sensor is (the coil's lag behind it: best "
+            f"{tau:.3g} s, {lo:.3g} to {hi:.3g} s in the {ci:.0%} profile, {lo95:.3g} to "
+            f"{hi95:.3g} s at 95 %); the temperature terms' intervals cover every lag of the "
+            f"{ci:.0%} profile")
+    fit.notes.append(f"thermal fit of {log.name}: generalised residual chi-square per degree "
+                     f"of freedom {th['chi2_per_dof']:.3g} (about 1 when the noise model and "
+                     "the temperature model explain the record)")
 
 
 def _all_fog_keys() -> list:
@@ -479,11 +563,26 @@ def _read_static(path, args) -> tuple[StaticLog, object]:
     return StaticLog(str(path), v, log.fs, tuple(log.segments), log.sources[ch]), log
 
 
+def _read_thermal(path, args):
+    from .device_thermal import ThermalLog
+
+    chans = [f"gyro_{args.axis}" if args.axis else "gyro_*", "temp"]
+    log = read_log(path, mapping=args.column, channels=chans, fs=args.fs, gaps="refuse",
+                   time_tolerance=args.time_tolerance, min_samples=MIN_RECORD_SAMPLES)
+    ch = _channel(log, args.axis, path)
+    if log.units[ch] == "au":
+        raise LogError(f"{path}: column {log.sources[ch]!r} is in raw counts (au); a device "
+                       "file needs a rate unit (dps, rps, dph)")
+    return ThermalLog(str(path), log.channels[ch], log.channels["temp"], log.fs,
+                      log.sources[ch]), log
+
+
 def _cmd_fit(args) -> int:
     from fogcomp.allan import ONE_SIGMA_CI
 
     if not args.static and not args.curve:
-        raise LogError("device fit: give at least one --static LOG.csv or --curve CURVE.csv")
+        raise LogError("device fit: give at least one --static LOG.csv or --curve CURVE.csv "
+                       "(with --thermal too: the thermal fit needs their noise model)")
     ci = ONE_SIGMA_CI if args.ci is None else args.ci
     if not (0 < ci < 1):
         raise LogError(f"--ci: expected a probability between 0 and 1, got {_fmt_number(ci)}")
@@ -520,7 +619,8 @@ def _cmd_fit(args) -> int:
     if args.min_tau_s is not None and not (args.min_tau_s > 0 and math.isfinite(args.min_tau_s)):
         raise LogError(f"--min-tau-s: expected a positive number of seconds, got "
                        f"{_fmt_number(args.min_tau_s)}")
-    inputs = [Path(p) for p in args.static] + ([Path(args.curve)] if args.curve else [])
+    inputs = [Path(p) for p in args.static] + ([Path(args.curve)] if args.curve else []) + \
+        ([Path(args.thermal)] if args.thermal else [])
     out = _Outputs(args.overwrite, "device fit")
     target = out.target(Path(args.out), tuple(inputs), recognise=_is_device_file,
                         what="device file")
@@ -546,11 +646,15 @@ def _cmd_fit(args) -> int:
             raise LogError(f"{args.curve}: no axis {ax!r} (it has {', '.join(curves)})")
         t, a, _, _ = curves[ax]
         curve = (f"{args.curve} (axis {ax})", t, a**2, fs, samples)
+    thermal = None
+    if args.thermal:
+        thermal, tlog = _read_thermal(args.thermal, args)
+        print(tlog.describe(), file=sys.stderr)
     earth = None
     if args.latitude_deg is not None:
         earth = earth_projection(args.latitude_deg, args.input_axis, args.heading_deg or 0.0)
     try:
-        fit = fit_device(statics, curve, earth, ci, args.min_tau_s)
+        fit = fit_device(statics, curve, earth, ci, args.min_tau_s, thermal)
     except ValueError as exc:
         raise LogError(f"device fit: {exc}") from None
     opts = [f"--axis {args.axis}"] if args.axis else []
@@ -734,6 +838,9 @@ def add_commands(subparsers) -> None:
                         "switch-on repeatability)")
     f.add_argument("--curve", help="an Allan curve (tau_s, adev_<unit>; as fogbench allan "
                    "--curve reads it)")
+    f.add_argument("--thermal", metavar="LOG.csv", help="a log at a constant rate through a "
+                   "temperature program, with its temperature sensor (temp_c): the "
+                   "temperature terms and the coil's lag (needs --static or --curve)")
     f.add_argument("--curve-ci", type=float, help="--curve: probability content of its "
                    "interval columns (e.g. 0.95); the fit uses its own covariance, not them")
     f.add_argument("--samples", type=int, help="--curve: samples of its record (default: its "

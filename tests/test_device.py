@@ -368,3 +368,68 @@ def test_a_run_keeps_the_device_it_ran_and_resume_refuses_an_edited_one(tmp_path
     dev.write_text("arw_deg_rt_h = -1.0\n")
     code, _, err = run_cli("check", s)
     assert code == 2 and str(s) in err and "[fog] key 'device'" in err and str(dev) in err
+
+
+# ---------------------------------------------------------------------------------------------
+# thermal
+def _thermal_program():
+    from sim.thermal import ThermalHold, ThermalProgram, ThermalRamp
+
+    return ThermalProgram(start=20.0, steps=(
+        ThermalHold(1800.0), ThermalRamp(40.0, 0.5 / 60), ThermalHold(3600.0),
+        ThermalRamp(0.0, 0.5 / 60), ThermalHold(3600.0), ThermalRamp(20.0, 0.5 / 60),
+        ThermalHold(1800.0)))
+
+
+def _thermal_run(name: str, fs: float, seed: int):
+    """A static log (2 h) and a thermal run (20 -> 40 -> 0 -> 20 deg C at 0.5 deg C/min, 6.3 h)
+    of a preset: its noise and temperature terms, its thermal build and sensor."""
+    from fogbench.bench_noise import _noise_only
+    from fogbench.device_thermal import ThermalLog
+    from fogbench.scenario import _fog, _Table
+    from sim.thermal import simulate_thermal
+
+    params, _, _, _, model, _ = _fog(_Table({"preset": name}, "[fog]", "test"), fs)
+    prog = _thermal_program()
+    n = int(prog.duration * fs)
+    th = simulate_thermal(prog, np.arange(n) / fs, model, seed=seed)
+    z = np.zeros((n, 3))
+    y = simulate_fog(params, fs, z, z, temp=th.coil, temp_rate=th.coil_rate, axes=("z",),
+                     seed=seed).raw[:, 0]
+    static = StaticLog("static", _static(_noise_only(params), fs, int(2 * 3600 * fs),
+                                         seed + 10**6), fs)
+    return static, ThermalLog("thermal", y, th.sensor, fs)
+
+
+@pytest.mark.parametrize("name, fs", [("tactical", 10.0), ("paper002_fog", 1.0)])
+def test_thermal_fit_covers_the_presets_temperature_terms(name, fs):
+    """A thermal run of a preset (sensor on the coil for tactical; on the housing, the coil
+    1582 s behind it, for paper002_fog), the noise model from a static log: each temperature
+    coefficient's 68 % interval covers the preset's value in at least 60 % of 10 seeds, and
+    where the fit places the sensor (the coil, or the housing with a lag) it is where the
+    preset has it in at least 60 % of those seeds."""
+    from fogbench.device_thermal import KEYS
+
+    truth = {k: load_presets()[name].get(k, 0.0) for k, _ in KEYS}
+    hits = {k: 0 for k in truth}
+    places, lags = [], []
+    for seed in range(10):
+        static, thermal = _thermal_run(name, fs, seed)
+        fit = fit_device([static], thermal=thermal)
+        for k in truth:
+            e = fit.entry(k)
+            hits[k] += e.low <= truth[k] <= e.high
+        lag = fit.entry("coil_time_constant_s")
+        if lag is not None:
+            lags.append((lag.low, lag.high))
+        loc = fit.entry("temp_sensor_location")
+        places.append(None if loc is None else loc.value)
+    for k, h in hits.items():
+        assert h >= 6, (name, k, hits)
+    # the lag's 68 % profile interval excludes the true lag now and then: judged like the rest
+    placed = [p for p in places if p is not None]
+    right = sum(p == load_presets()[name]["temp_sensor_location"] for p in placed)
+    assert right >= 0.6 * len(placed), places
+    if name == "paper002_fog":     # the coil 1582 s behind the housing it reads
+        assert len(lags) >= 6 and sum(a <= 1582.0 <= b for a, b in lags) >= 0.6 * len(lags), lags
+    print(name, hits, places, lags)

@@ -433,3 +433,26 @@ def test_thermal_fit_covers_the_presets_temperature_terms(name, fs):
     if name == "paper002_fog":     # the coil 1582 s behind the housing it reads
         assert len(lags) >= 6 and sum(a <= 1582.0 <= b for a, b in lags) >= 0.6 * len(lags), lags
     print(name, hits, places, lags)
+
+
+def test_thermal_fit_from_the_command_line(tmp_path):
+    static, thermal = _thermal_run("paper002_fog", 1.0, 3)
+    s = _write_log(tmp_path / "static.csv", static.rate, 1.0)
+    t = tmp_path / "thermal.csv"
+    with open(t, "w") as f:
+        f.write("time_s,gyro_z_dps,temp_c\n")
+        for i, (a, b) in enumerate(zip(np.degrees(thermal.rate), thermal.temp)):
+            f.write(f"{i:.1f},{a:.9e},{b:.4f}\n")
+    dev = tmp_path / "dev.toml"
+    code, out, err = run_cli("device", "fit", "--thermal", t, "--out", dev)
+    assert code == 2 and "the thermal fit needs their noise model" in err and not dev.exists()
+    nocol = tmp_path / "notemp.csv"
+    nocol.write_text("\n".join(ln.rsplit(",", 1)[0] for ln in t.read_text().splitlines()))
+    code, out, err = run_cli("device", "fit", "--static", s, "--thermal", nocol, "--out", dev)
+    assert code == 2 and "temp" in err and not dev.exists()
+    code, out, err = run_cli("device", "fit", "--static", s, "--thermal", t, "--out", dev)
+    assert code == 0, err
+    doc = load_device_file(dev)
+    assert doc["temp_sensor_location"] == "housing"
+    assert 0.3 < doc["temp_rate_coeff_dph_per_c_per_min"] < 0.7     # preset: 0.462
+    assert "thermal log" in dev.read_text()

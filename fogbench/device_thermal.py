@@ -31,13 +31,14 @@ from fogcomp.units import DPH
 
 __all__ = ["ThermalLog", "fit_thermal", "BLOCK_S", "LAG_GRID_S", "KEYS"]
 
-BLOCK_S = 10.0                 # the fit works on 10 s means of rate and temperature
+BLOCK_S = 10.0                 # the fit works on 10 s means (longer past MAX_BLOCKS blocks)
 RATE_WINDOW_S = 60.0           # dT/dt of a sensor on the coil: differenced over +-30 s
 LAG_GRID_S = np.concatenate([[0.0], np.geomspace(10.0, 2e4, 67)])
 KEYS = (("temp_coeff_dph_per_c", DPH), ("temp_coeff2_dph_per_c2", DPH),
         ("temp_rate_coeff_dph_per_c_per_min", DPH * 60.0),
         ("temp_cross_coeff_dph_per_c_per_c_per_min", DPH * 60.0))
 T_REF_C = 20.0
+MAX_BLOCKS = 6000              # longer logs get longer blocks (the covariance is m x m)
 
 
 @dataclass(frozen=True)
@@ -102,7 +103,7 @@ def fit_thermal(log: ThermalLog, noise, ci: float) -> dict:
     from scipy.linalg import solve_triangular
     from scipy.stats import chi2, norm
 
-    k = max(1, int(round(BLOCK_S * log.fs)))
+    k = max(1, int(round(BLOCK_S * log.fs)), math.ceil(log.rate.size / MAX_BLOCKS))
     h = k / log.fs
     yb, Tb = _blocks(log.rate, k), _blocks(log.temp, k)
     if yb.size < 30:

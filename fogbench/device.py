@@ -334,7 +334,7 @@ def _thermal_noise(model, fs: float):
 
 
 def _thermal_entries(fit: DeviceFit, log, ci: float, bias_given: bool, model) -> None:
-    from .device_thermal import BLOCK_S, KEYS, RATE_WINDOW_S, T_REF_C, fit_thermal
+    from .device_thermal import KEYS, RATE_WINDOW_S, T_REF_C, fit_thermal
 
     col = f", column {log.column}" if log.column else ""
     fit.inputs.append(f"thermal log {log.name} ({log.rate.size} samples at {log.fs:g} Hz"
@@ -343,16 +343,23 @@ def _thermal_entries(fit: DeviceFit, log, ci: float, bias_given: bool, model) ->
     th = fit_thermal(log, noise, ci)
     tau, lo, hi, bounded = th["lag"]
     lo95, hi95, bounded95 = th["lag95"]
-    how = (f"generalised least squares on {BLOCK_S:g} s means of {log.name} (bias + T + T^2 + "
+    how = (f"generalised least squares on {th['block_s']:g} s means of {log.name} (bias + T + T^2 + "
            "dT/dt + T dT/dt of the coil), weighted by the fitted noise model (terms the "
-           "record only bounds at their 95 % bounds); interval the "
-           f"union over the coil lags the residual allows ({lo:.3g} to {hi:.3g} s)")
+           "record only bounds at their 95 % bounds); interval the union over the coil lags "
+           f"the residual allows, both at (1 + {ci:.3g}) / 2 so that they hold together at "
+           f"{ci:.3g} at least")
     fit.entries.append(Entry("temp_ref_c", T_REF_C, None, None,
                              "chosen: the temperature terms' reference"))
     for key, _ in KEYS:
         v, a, b = th[key]
         fit.entries.append(Entry(key, v, a, b, how))
-    if not bias_given:
+    if bias_given:
+        v, a, b = th["bias_at_ref_dph"]
+        fit.notes.append(f"bias_dph is the static logs' mean at their own (unlogged) "
+                         f"temperature; the temperature terms refer to {T_REF_C:g} deg C, where "
+                         f"the thermal fit's constant is {v:.4g} [{a:.4g}, {b:.4g}] deg/h (its "
+                         "rate, the Earth rate included)")
+    else:
         v, a, b = th["bias_at_ref_dph"]
         fit.entries.append(Entry("bias_dph", v, a, b, f"the thermal fit's constant at "
                                  f"{T_REF_C:g} deg C ({log.name}; its rate, Earth rate "
@@ -378,7 +385,7 @@ def _thermal_entries(fit: DeviceFit, log, ci: float, bias_given: bool, model) ->
             f"{log.name} does not tell where the sensor is (the coil's lag behind it: best "
             f"{tau:.3g} s, {lo:.3g} to {hi:.3g} s in the {ci:.0%} profile, {lo95:.3g} to "
             f"{hi95:.3g} s at 95 %); the temperature terms' intervals cover every lag of the "
-            f"{ci:.0%} profile")
+            f"{(1 + ci) / 2:.0%} profile")
     fit.notes.append(f"thermal fit of {log.name}: generalised residual chi-square per degree "
                      f"of freedom {th['chi2_per_dof']:.3g} (about 1 when the noise model and "
                      "the temperature model explain the record)")

@@ -12,12 +12,16 @@ walk) have the same time scales as the temperature program, so ordinary least sq
 with Newey-West intervals) trades them against the temperature terms and states intervals far
 too narrow (measured on the tactical preset: the T coefficient's 68 % interval covered the truth
 in 1-2 of 5 runs). Here the residual's covariance is the noise model's: the one identified from
-the static logs when given, else from the thermal log's own residual after a first pass. The
+the static logs or the Allan curve given with the thermal log. The
 estimate is weighted by its inverse (10 s means, a Cholesky solve), and its covariance
 (X' C^-1 X)^-1 is exact when the noise model is; it is scaled up by the residual's chi-square
 per degree of freedom when that exceeds 1 (a misfit the noise model does not explain). The lag
 is a nuisance a record may hardly determine: each coefficient's interval is the union of its
-intervals over every lag the residual does not reject (chi-square profile, one parameter).
+intervals over the lags around the best one that the residual does not reject (chi-square
+profile, one parameter), both at level (1 + ci) / 2, so that the two hold together with
+probability ci at least (Bonferroni). The coil is taken to start at the sensor's temperature
+(the FOG soaked when the log starts); a design the program cannot separate (a single ramp:
+dT and dT/dt move together) is refused.
 """
 
 from __future__ import annotations
@@ -38,7 +42,8 @@ KEYS = (("temp_coeff_dph_per_c", DPH), ("temp_coeff2_dph_per_c2", DPH),
         ("temp_rate_coeff_dph_per_c_per_min", DPH * 60.0),
         ("temp_cross_coeff_dph_per_c_per_c_per_min", DPH * 60.0))
 T_REF_C = 20.0
-MAX_BLOCKS = 6000              # longer logs get longer blocks (the covariance is m x m)
+MAX_BLOCKS = 3000              # longer logs get longer blocks (the covariance is m x m)
+MAX_CONDITION = 100.0          # a design more collinear than this is refused (below)
 
 
 @dataclass(frozen=True)
@@ -80,18 +85,25 @@ def block_covariance(noise, fs: float, k: int, m: int) -> np.ndarray:
     (FogParams: white, flicker and Gauss-Markov terms as ``fogbench.runner.
     noise_autocovariance``; the rate random walk K as K^2 min(t_i, t_j) at the blocks'
     centres)."""
+    from scipy.linalg import toeplitz
+    from scipy.signal import fftconvolve
+
     from .runner import noise_autocovariance
 
     g = noise_autocovariance(noise, fs, m * k + k)
-    d = np.arange(-(k - 1), k)
-    wts = (k - np.abs(d)) / float(k * k)
-    lag = np.abs(np.arange(m)[:, None] * k + d[None, :])
-    cb = (g[lag] * wts[None, :]).sum(axis=1)
-    idx = np.abs(np.arange(m)[:, None] - np.arange(m)[None, :])
-    C = cb[idx]
+    # cb[j] = sum_d (k - |d|) g(|j k + d|) / k^2: the autocovariance at every lag x from
+    # -(k-1) on, correlated with the triangle (k - |d|), read at x = j k
+    gs = g[np.abs(np.arange(-(k - 1), m * k + k - 1))]
+    tri = (k - np.abs(np.arange(-(k - 1), k))).astype(float)
+    conv = fftconvolve(gs, tri, mode="valid")
+    cb = conv[np.arange(m) * k] / float(k * k)
+    C = toeplitz(cb)
     if noise.rrw:
+        # a random walk K: cov of block means K^2 min(t_i, t_j) at the centres, less K^2 h/6
+        # on the diagonal (the walk inside a block)
         t = (np.arange(m) + 0.5) * k / fs
-        C = C + noise.rrw ** 2 * np.minimum(t[:, None], t[None, :])
+        C += noise.rrw ** 2 * np.minimum(t[:, None], t[None, :])
+        C[np.diag_indices_from(C)] -= noise.rrw ** 2 * (k / fs) / 6.0
     return C
 
 
@@ -105,6 +117,8 @@ def fit_thermal(log: ThermalLog, noise, ci: float) -> dict:
 
     k = max(1, int(round(BLOCK_S * log.fs)), math.ceil(log.rate.size / MAX_BLOCKS))
     h = k / log.fs
+    if not (np.all(np.isfinite(log.rate)) and np.all(np.isfinite(log.temp))):
+        raise ValueError(f"{log.name}: the rate or the temperature holds NaN or infinite values")
     yb, Tb = _blocks(log.rate, k), _blocks(log.temp, k)
     if yb.size < 30:
         raise ValueError(f"{log.name}: {yb.size} blocks of {h:g} s; the thermal fit needs at "
@@ -134,10 +148,11 @@ def fit_thermal(log: ThermalLog, noise, ci: float) -> dict:
             hi_i += 1
         return i, lo_i, hi_i
 
-    dof = yb.size - 5
+    dof = yb.size - 6                  # five coefficients and the lag
+    joint = 0.5 * (1.0 + ci)           # lag region and coefficient intervals each (Bonferroni)
     coarse = LAG_GRID_S
     chi = profile(coarse)
-    i, lo_i, hi_i = region(coarse, chi)
+    i, lo_i, hi_i = region(coarse, chi, joint)
     # refined between the coarse points that bracket the region (a step of 1.2 % in tau)
     a, b = coarse[max(lo_i - 1, 0)], coarse[min(hi_i + 1, coarse.size - 1)]
     fine = np.concatenate([[0.0] if a == 0.0 else [],
@@ -145,10 +160,17 @@ def fit_thermal(log: ThermalLog, noise, ci: float) -> dict:
                                math.log(b / max(a, LAG_GRID_S[1])) / 0.012)))])
     grid = np.unique(np.concatenate([coarse, fine]))
     chi = profile(grid)
-    i, lo_i, hi_i = region(grid, chi)
+    i, lo_i, hi_i = region(grid, chi, joint)
     scale = max(chi[i] / dof, 1.0)
     LAG = grid
-    z = float(norm.ppf(0.5 + ci / 2))
+    z = float(norm.ppf(0.5 + joint / 2))
+    wX = solve_triangular(L, design(Tb, h, float(LAG[i])), lower=True)
+    # collinearity of the weighted columns scaled to unit length: about 3 for the holds and
+    # ramps both ways of tests/test_device.py, 600 to 1e15 for a single ramp
+    if np.linalg.cond(wX / np.linalg.norm(wX, axis=0)) > MAX_CONDITION:
+        raise ValueError(f"{log.name}: the temperature program cannot separate the terms (T, "
+                         "T^2, dT/dt, T dT/dt: a single ramp moves T and dT/dt together); "
+                         "record holds and ramps both ways")
     # the coefficients' intervals: the union over every lag the residual does not reject
     # (the lag is a nuisance the record may hardly determine; an interval at the best lag alone
     # would be far too narrow where the profile is flat)
@@ -162,10 +184,11 @@ def fit_thermal(log: ThermalLog, noise, ci: float) -> dict:
             est = beta
     tau = float(LAG[i])
     out = {"bias_at_ref_dph": (est[0] / DPH, lows[0] / DPH, highs[0] / DPH),
-           "chi2_per_dof": chi[i] / dof}
+           "chi2_per_dof": chi[i] / dof, "block_s": h}
     for j, (key, unit) in enumerate(KEYS, start=1):
         out[key] = (est[j] / unit, lows[j] / unit, highs[j] / unit)
-    out["lag"] = (tau, float(LAG[lo_i]), float(LAG[hi_i]), hi_i < LAG.size - 1)
+    _, lo_c, hi_c = region(grid, chi, ci)      # the lag's own interval, at ci
+    out["lag"] = (tau, float(LAG[lo_c]), float(LAG[hi_c]), hi_c < LAG.size - 1)
     _, lo95, hi95 = region(grid, chi, 0.95)     # where the sensor is: decided at 95 %
     out["lag95"] = (float(LAG[lo95]), float(LAG[hi95]), hi95 < LAG.size - 1)
     return out

@@ -456,3 +456,32 @@ def test_thermal_fit_from_the_command_line(tmp_path):
     assert doc["temp_sensor_location"] == "housing"
     assert 0.3 < doc["temp_rate_coeff_dph_per_c_per_min"] < 0.7     # preset: 0.462
     assert "thermal log" in dev.read_text()
+
+
+@pytest.mark.parametrize("k, m", [(1, 6), (2, 5), (7, 9), (30, 4)])
+def test_block_covariance_against_the_sample_covariance_averaged_by_brute_force(k, m):
+    """The covariance of m means of k samples equals A S A' with S the Toeplitz matrix of the
+    samples' autocovariance and A the averaging matrix (a slow obvious twin)."""
+    from scipy.linalg import toeplitz
+
+    from fogbench.device_thermal import block_covariance
+    from fogbench.runner import noise_autocovariance
+
+    p = FogParams(arw=0.03 * math.radians(1) / 60, bias_instability=0.1 * DPH,
+                  bi_band=(1e-6, 0.1), gm_drift=0.2 * DPH, gm_time_constant=50.0,
+                  quantization=1e-6)
+    S = toeplitz(noise_autocovariance(p, 10.0, m * k))
+    A = np.kron(np.eye(m), np.ones((1, k)) / k)
+    ref = A @ S @ A.T
+    np.testing.assert_allclose(block_covariance(p, 10.0, k, m), ref, rtol=1e-9,
+                               atol=1e-12 * np.abs(ref).max())
+
+
+def test_a_single_ramp_is_refused_as_inseparable():
+    from fogbench.device_thermal import ThermalLog, fit_thermal
+
+    fs, n = 1.0, 3600
+    T = 20.0 + 20.0 * np.arange(n) / n
+    y = 0.01 * DPH * (T - 20.0) + _static(FogParams(arw=1e-5), fs, n, 1)
+    with pytest.raises(ValueError, match="cannot separate"):
+        fit_thermal(ThermalLog("ramp", y, T, fs), FogParams(arw=1e-5), 0.683)

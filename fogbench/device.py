@@ -39,7 +39,7 @@ import numpy as np
 
 from fogcomp.units import ARCSEC, DEG_RT_H, DPH, DPH_PER_H, DPH_RT_H, DPS
 
-from .reallog import (EARTH_RATE, MIN_RECORD_SAMPLES, LogError, _common, _curve_record,
+from .reallog import (MIN_RECORD_SAMPLES, LogError, _common, _curve_record,
                       _fmt_number, _Outputs, _warnings_as_lines, read_curve, read_log)
 
 __all__ = ["MARKER", "preset_text", "DeviceFit", "fit_device", "twin_curves", "check_device",
@@ -189,12 +189,11 @@ def earth_projection(latitude_deg: float, input_axis: str, heading_deg: float = 
     """The Earth rate along a gyro's input axis at rest, rad/s: +-Omega sin(latitude) for an
     axis pointing up or down, Omega cos(latitude) cos(heading) for a level axis at a heading from
     north (Titterton & Weston 2004, eq. 3.72)."""
-    lat = math.radians(latitude_deg)
-    if input_axis == "up":
-        return EARTH_RATE * math.sin(lat)
-    if input_axis == "down":
-        return -EARTH_RATE * math.sin(lat)
-    return EARTH_RATE * math.cos(lat) * math.cos(math.radians(heading_deg))
+    from sim.earth import earth_rate_world
+
+    # the rig's own Earth rate, in a level frame whose x points along the heading, z up
+    w = earth_rate_world(math.radians(latitude_deg), math.radians(heading_deg))
+    return float({"up": w[2], "down": -w[2]}.get(input_axis, w[0]))
 
 
 def fit_device(static: list, curve=None, earth_rate: float | None = None,
@@ -584,6 +583,20 @@ def _read_thermal(path, args):
                       log.sources[ch]), log
 
 
+def _read_curve_axis(args):
+    """(axis, (taus, adev, low, high), sample rate, samples) of ``--curve``: the axis
+    ``--axis`` names, or the curve's only one."""
+    curves, _, header = read_curve(args.curve, args.curve_ci, with_header=True)
+    fs, samples = _curve_record(args.curve, header, args.fs, args.samples)
+    if len(curves) != 1 and args.axis is None:
+        raise LogError(f"{args.curve}: {len(curves)} axes ({', '.join(curves)}); choose one "
+                       "with --axis")
+    ax = args.axis if args.axis is not None else next(iter(curves))
+    if ax not in curves:
+        raise LogError(f"{args.curve}: no axis {ax!r} (it has {', '.join(curves)})")
+    return ax, curves[ax], fs, samples
+
+
 def _cmd_fit(args) -> int:
     from fogcomp.allan import ONE_SIGMA_CI
 
@@ -643,15 +656,7 @@ def _cmd_fit(args) -> int:
             f"{s.name}: {s.fs:g} Hz" for s in statics) + "); a device file is fitted at one")
     curve = None
     if args.curve:
-        curves, _, header = read_curve(args.curve, args.curve_ci, with_header=True)
-        fs, samples = _curve_record(args.curve, header, args.fs, args.samples)
-        if len(curves) != 1 and args.axis is None:
-            raise LogError(f"{args.curve}: {len(curves)} axes ({', '.join(curves)}); choose "
-                           "one with --axis")
-        ax = args.axis if args.axis is not None else next(iter(curves))
-        if ax not in curves:
-            raise LogError(f"{args.curve}: no axis {ax!r} (it has {', '.join(curves)})")
-        t, a, _, _ = curves[ax]
+        ax, (t, a, _, _), fs, samples = _read_curve_axis(args)
         curve = (f"{args.curve} (axis {ax})", t, a**2, fs, samples)
     thermal = None
     if args.thermal:
@@ -708,15 +713,13 @@ def _device_from_values(values: dict, fs: float):
 
 
 def _device_params(path, fs: float):
-    from .scenario import ScenarioError, _fog, _Table, load_device_file
+    from .scenario import ScenarioError, load_device_file
 
     try:
         doc = load_device_file(path, fs)
-        params, *_ = _fog(_Table({"device": str(Path(path).resolve())}, "[fog]", str(path)),
-                          fs)
     except ScenarioError as exc:
         raise LogError(str(exc)) from None
-    return params, doc
+    return _device_from_values(doc, fs), doc
 
 
 def _cmd_check(args) -> int:
@@ -749,15 +752,7 @@ def _cmd_check(args) -> int:
         curve, _ = allan_analysis(s.rate, s.fs, ci=CHECK_CI, segments=segments)
         interval = f"{CHECK_CI:.0%} interval (EDF)"
     else:
-        curves, _, header = read_curve(args.curve, args.curve_ci, with_header=True)
-        fs, n = _curve_record(args.curve, header, args.fs, args.samples)
-        ax = args.axis if args.axis is not None else next(iter(curves))
-        if len(curves) != 1 and args.axis is None:
-            raise LogError(f"{args.curve}: {len(curves)} axes ({', '.join(curves)}); choose "
-                           "one with --axis")
-        if ax not in curves:
-            raise LogError(f"{args.curve}: no axis {ax!r} (it has {', '.join(curves)})")
-        t, a, lo, hi = curves[ax]
+        _, (t, a, lo, hi), fs, n = _read_curve_axis(args)
         if lo is None:
             raise LogError(f"{args.curve}: no interval columns (adev_ci_low_/high_<unit>): "
                            "the check compares intervals")

@@ -282,7 +282,7 @@ def _calibrated(tmp_path, method="kalman"):
     return log, tmp_path / "m"
 
 
-def _refused_compensate(tmp_path, model, log, *words):
+def assert_compensate_refused(tmp_path, model, log, *words):
     before = snapshot(tmp_path)
     code, _, err = run_cli("compensate", model, log, "--out", tmp_path / "clean.csv")
     assert code == 2, err
@@ -311,7 +311,7 @@ def test_swapped_per_axis_model_files_are_refused(tmp_path):
         x.rename(tmp)
         z.rename(x)
         tmp.rename(z)
-    _refused_compensate(tmp_path, m / "kal", log, "kal.gyro_x.json", "does not match the "
+    assert_compensate_refused(tmp_path, m / "kal", log, "kal.gyro_x.json", "does not match the "
                         "checksum", "swapped")
 
 
@@ -321,7 +321,7 @@ def test_a_model_of_another_method_under_the_manifest_is_refused(tmp_path):
     assert code == 0, err
     for suffix in (".json", ".npz"):
         shutil.copyfile(tmp_path / "w" / f"ws.gyro_y{suffix}", m / f"kal.gyro_y{suffix}")
-    _refused_compensate(tmp_path, m / "kal", log, "kal.gyro_y.json", "does not match")
+    assert_compensate_refused(tmp_path, m / "kal", log, "kal.gyro_y.json", "does not match")
     # even with the manifest's pins updated, the model's own method is compared
     from fogbench.reallog import _file_sha256
 
@@ -330,7 +330,7 @@ def test_a_model_of_another_method_under_the_manifest_is_refused(tmp_path):
         doc["axes"]["gyro_y"]["npz_sha256"] = _file_sha256(m / "kal.gyro_y.npz")
 
     _reseal(m / "kal.json", repin)
-    _refused_compensate(tmp_path, m / "kal", log, "kal.gyro_y.json", "'wavelet_soft' model",
+    assert_compensate_refused(tmp_path, m / "kal", log, "kal.gyro_y.json", "'wavelet_soft' model",
                         "'kalman'")
 
 
@@ -339,9 +339,9 @@ def test_an_edited_sample_rate_is_refused_by_the_checksum_and_by_the_models_own(
     doc = json.loads((m / "kal.json").read_text())
     doc["fs_hz"] = 50.0
     (m / "kal.json").write_text(json.dumps(doc))
-    _refused_compensate(tmp_path, m / "kal", log, "kal.json", "does not match its checksum")
+    assert_compensate_refused(tmp_path, m / "kal", log, "kal.json", "does not match its checksum")
     _reseal(m / "kal.json", lambda d: d.update(fs_hz=50.0))
-    _refused_compensate(tmp_path, m / "kal", log, "'fs_hz' is 50 Hz", "fitted at 100 Hz")
+    assert_compensate_refused(tmp_path, m / "kal", log, "'fs_hz' is 50 Hz", "fitted at 100 Hz")
 
 
 @pytest.mark.parametrize("change, words", [
@@ -366,7 +366,7 @@ def test_missing_or_wrongly_typed_manifest_keys_are_a_model_file_error(tmp_path,
         (m / "kal.json").write_text(json.dumps(doc))
     else:
         _reseal(m / "kal.json", change)
-    _refused_compensate(tmp_path, m / "kal", log, "kal.json", *words)
+    assert_compensate_refused(tmp_path, m / "kal", log, "kal.json", *words)
 
 
 def _ferraris_csv(path: Path, swap: bool = False, seed: int = 3) -> Path:
@@ -774,7 +774,7 @@ def test_a_manifest_that_is_not_json_we_write_names_the_file(tmp_path, text, wor
     else:
         (m / "kal.json").write_text(body.replace(f'"fs_hz": {json.loads(body)["fs_hz"]!r}',
                                                  text))
-    _refused_compensate(tmp_path, m / "kal", log, *words)
+    assert_compensate_refused(tmp_path, m / "kal", log, *words)
 
 
 def test_deeply_nested_inputs_are_one_line(tiny, tmp_path, killed):

@@ -21,9 +21,11 @@ What a fit determines (``fit_device``):
   sensor): the temperature terms and the coil's lag behind the sensor
   (:mod:`fogbench.device_thermal`), weighted by the noise model of the static logs or curve.
 
-Multi-position and centrifuge logs are not fitted here yet (``fogbench calibrate`` with
-``model_lstsq`` or ``flnn_lstsq`` fits those models on a log; their keys are listed as
-undetermined).
+- a multi-position, centrifuge or rate-table log (``--multipos``, with its reference rate
+  column): the g and g^2 terms of paper 004 eq. 8 and the scale factor (and its non-linearity
+  with the full scale given), each term flagged identifiable from the log's design or not
+  (:mod:`fogbench.device_multipos`). Misalignment is not fitted (it needs the reference rates
+  about the other axes).
 """
 
 from __future__ import annotations
@@ -70,13 +72,15 @@ _NEEDS = {
     "quantization_arcsec": ("0", "a record whose shortest averaging times show slope -1"),
     "rate_ramp_dph_per_h": ("0", "a record showing slope +1"),
     "gm_drift_dps": ("0", "a record showing a Gauss-Markov hump"),
-    "scale_factor_ppm": ("0", "a rate-table log (fogbench calibrate, not fitted here yet)"),
-    "sf_nonlinearity_ppm": ("0", "a rate-table log over the range (not fitted here yet)"),
-    "g_sens_dph_per_g": ("[0, 0, 0]", "a multi-position log (fogbench calibrate "
-                         "model_lstsq/flnn_lstsq; not fitted here yet)"),
-    "g2_sens_dph_per_g2": ("[0, 0, 0, 0, 0, 0]", "a centrifuge or multi-position log (not "
-                           "fitted here yet)"),
-    "misalignment_mrad": ("zero", "a rate-table log about three axes (not fitted here yet)"),
+    "scale_factor_ppm": ("0", "a rate-table log (--multipos LOG.csv --reference COLUMN)"),
+    "sf_nonlinearity_ppm": ("0", "a rate-table log over the range (--multipos, with "
+                            "--full-scale-dps)"),
+    "g_sens_dph_per_g": ("[0, 0, 0]", "a multi-position log (--multipos LOG.csv --reference "
+                         "COLUMN)"),
+    "g2_sens_dph_per_g2": ("[0, 0, 0, 0, 0, 0]", "a centrifuge and multi-position log "
+                           "(--multipos)"),
+    "misalignment_mrad": ("zero", "a rate-table log with the reference rates about the other "
+                          "axes (not fitted here: --reference names the input axis's only)"),
     "temp_coeff_dph_per_c": ("0", "a thermal log (--thermal)"),
     "temp_coeff2_dph_per_c2": ("0", "a thermal log (--thermal)"),
     "temp_rate_coeff_dph_per_c_per_min": ("0", "a thermal log with ramps (--thermal)"),
@@ -115,8 +119,8 @@ class Entry:
 
     key: str
     value: object
-    low: float | None
-    high: float | None
+    low: float | list | None     # a vector key: one bound per component (None: undetermined)
+    high: float | list | None
     source: str
 
 
@@ -147,14 +151,24 @@ class DeviceFit:
             out.append(f"# NOTE: {n}")
         out.append(f"source = {json.dumps('fitted by fogbench device fit to ' + ', '.join(self.inputs))}")
         for e in self.entries:
-            iv = "" if e.low is None else f" [{_interval_text(e.low, e.high)}]"
-            out.append(f"# {e.key}: {e.source}{iv}")
+            out.append(f"# {e.key}: {e.source}{_entry_interval(e)}")
             out.append(f"{e.key} = {_toml_value(e.value)}")
         out.append("# Not determined by these logs (the simulator's default applies):")
         for k, why in self.undetermined.items():
             default = _NEEDS.get(k, ("the simulator's (sim.fog.FogParams, sim.thermal)",))[0]
             out.append(f"#   {k}: default {default}; {why}")
         return "\n".join(out) + "\n"
+
+
+def _entry_interval(e: Entry) -> str:
+    """An entry's interval as written after its value ('' when none is stated): one pair, or
+    one per component of a vector ('-' for a component the logs do not determine)."""
+    if e.low is None:
+        return ""
+    if isinstance(e.low, (list, tuple)):
+        return " [" + "; ".join("-" if a is None else _interval_text(a, b)
+                                for a, b in zip(e.low, e.high)) + "]"
+    return f" [{_interval_text(e.low, e.high)}]"
 
 
 def _interval_text(lo: float, hi: float) -> str:
@@ -198,7 +212,7 @@ def earth_projection(latitude_deg: float, input_axis: str, heading_deg: float = 
 
 def fit_device(static: list, curve=None, earth_rate: float | None = None,
                ci: float | None = None, min_tau: float | None = None,
-               thermal=None) -> DeviceFit:
+               thermal=None, multipos=None, full_scale: float | None = None) -> DeviceFit:
     """A device file's keys from static logs and/or an Allan curve.
 
     Parameters
@@ -220,6 +234,13 @@ def fit_device(static: list, curve=None, earth_rate: float | None = None,
         A record at a constant rate through a temperature program: the temperature terms and
         the coil's lag (:func:`fogbench.device_thermal.fit_thermal`, weighted by the noise
         model the static logs or the curve gave; one of them is needed).
+    multipos : fogbench.device_multipos.MultiposLog, optional
+        A multi-position, centrifuge or rate-table record with its specific force and reference
+        rate: the g and g^2 terms and the scale factor
+        (:func:`fogbench.device_multipos.fit_multipos`, weighted as the thermal fit).
+    full_scale : float, optional
+        The gyro's full scale, rad/s (a datasheet's): with it the multi-position fit states the
+        scale factor's non-linearity at full scale (``sf_nonlinearity_ppm``).
     """
     from scipy.stats import chi2, t as student_t
 
@@ -302,6 +323,11 @@ def fit_device(static: list, curve=None, earth_rate: float | None = None,
             raise ValueError("--thermal: the fit weighs the thermal log by the noise model of "
                              "a static log or an Allan curve; give --static or --curve too")
         _thermal_entries(fit, thermal, ci, bias_given=bool(static), model=model)
+    if multipos is not None:
+        if model is None:
+            raise ValueError("--multipos: the fit weighs the log by the noise model of a static "
+                             "log or an Allan curve; give --static or --curve too")
+        _multipos_entries(fit, multipos, ci, model, full_scale)
     for key, (_, why) in _NEEDS.items():
         if fit.entry(key) is None and key not in fit.undetermined:
             fit.undetermined[key] = "needs " + why
@@ -388,6 +414,67 @@ def _thermal_entries(fit: DeviceFit, log, ci: float, bias_given: bool, model) ->
     fit.notes.append(f"thermal fit of {log.name}: generalised residual chi-square per degree "
                      f"of freedom {th['chi2_per_dof']:.3g} (about 1 when the noise model and "
                      "the temperature model explain the record)")
+
+
+def _multipos_entries(fit: DeviceFit, log, ci: float, model, full_scale) -> None:
+    from .device_multipos import TERMS, fit_multipos
+
+    col = f", column {log.column}" if log.column else ""
+    fit.inputs.append(f"multi-position log {log.name} ({log.rate.size} samples at {log.fs:g} Hz"
+                      f"{col})")
+    res = fit_multipos(log, _thermal_noise(model, log.fs), ci, full_scale)
+    how = (f"generalised least squares on {res['block_s']:g} s means of {log.name} (rate less "
+           "the reference = constant + g terms of paper 004 eq. 8 + scale factor + "
+           "non-linearity), weighted by the fitted noise model (terms the record only bounds "
+           "at their 95 % bounds)")
+    missing = [name for name, _ in TERMS if res[name] is None]
+    vectors: dict = {}
+    for name, target in TERMS:
+        if target is None:
+            continue
+        key, idx = target
+        v = res[name]
+        if idx is None:                               # a scalar key
+            if v is None:
+                fit.undetermined[key] = f"not identifiable from {log.name} (its design)"
+            elif key == "sf_nonlinearity_ppm" and full_scale is None:
+                fit.undetermined[key] = ("fitted but not stated: give --full-scale-dps (the "
+                                         "non-linearity is stated at full scale)")
+            else:
+                fit.entries.append(Entry(key, v[0] * 1e6, v[1] * 1e6, v[2] * 1e6, how))
+                if key == "sf_nonlinearity_ppm":
+                    fit.entries.append(Entry("full_scale_dps", full_scale / DPS, None, None,
+                                             "given (--full-scale-dps): the full scale the "
+                                             "non-linearity is stated at"))
+            continue
+        n = 3 if key == "g_sens_dph_per_g" else 6
+        vec = vectors.setdefault(key, ([0.0] * n, [None] * n, [None] * n, []))
+        if v is None:
+            vec[3].append(name)
+        else:
+            vec[0][idx], vec[1][idx], vec[2][idx] = (x / DPH for x in v)
+    for key, (val, lo, hi, undetermined) in vectors.items():
+        if len(undetermined) == len(val):
+            fit.undetermined[key] = f"not identifiable from {log.name} (its design)"
+            continue
+        src = how + "; components in the log's body axes (acc_x, acc_y, acc_z)"
+        if undetermined:
+            src += (f"; {', '.join(undetermined)} not identifiable from this log's attitudes "
+                    "(written 0)")
+        fit.entries.append(Entry(key, val, lo, hi, src))
+    if missing:
+        fit.notes.append(f"{log.name}: not identifiable from its attitudes and rates: "
+                         f"{', '.join(missing)} (fx^2 + fy^2 + fz^2 = 1 g^2 in every static "
+                         "position: the squares and the constant separate only on a "
+                         "centrifuge; the cross terms need positions between the axes)")
+    if res["constant"] is not None:
+        v, a, b = (x / DPH for x in res["constant"])
+        fit.notes.append(f"the multi-position fit's constant (the bias in that power-on, with "
+                         f"what of the Earth rate the reference leaves out): {v:.4g} "
+                         f"[{a:.4g}, {b:.4g}] deg/h")
+    fit.notes.append(f"multi-position fit of {log.name}: generalised residual chi-square per "
+                     f"degree of freedom {res['chi2_per_dof']:.3g} over {res['blocks']} "
+                     "means (about 1 when the noise model and the g model explain the record)")
 
 
 def _all_fog_keys() -> list:
@@ -583,6 +670,33 @@ def _read_thermal(path, args):
                       log.sources[ch]), log
 
 
+def _read_multipos(path, args):
+    from .device_multipos import MultiposLog
+    from .reallog import G0, GYRO_UNITS, _numeric
+
+    if not args.reference:
+        raise LogError("--multipos: give --reference COLUMN, the log's reference rate about the "
+                       "input axis with its unit (e.g. ref_dps: the table's rate plus the Earth "
+                       "rate's projection)")
+    m = re.fullmatch(r"(.+)_(dps|rps|dph|deg_s|rad_s)", args.reference)
+    if not m:
+        raise LogError(f"--reference {args.reference!r}: name a column with a rate unit suffix "
+                       "(_dps, _rps, _dph)")
+    chans = [f"gyro_{args.axis}" if args.axis else "gyro_*", "acc_x", "acc_y", "acc_z"]
+    log = read_log(path, mapping=args.column, channels=chans, fs=args.fs, gaps="refuse",
+                   time_tolerance=args.time_tolerance, min_samples=MIN_RECORD_SAMPLES)
+    ch = _channel(log, args.axis, path)
+    for c in [ch] + [f"acc_{a}" for a in "xyz"]:
+        if log.units[c] == "au":
+            raise LogError(f"{path}: column {log.sources[c]!r} is in raw counts (au); the "
+                           "multi-position fit needs physical units")
+    if args.reference not in log.frame.columns:
+        raise LogError(f"{path}: no column {args.reference!r} (--reference)")
+    ref = _numeric(path, log.frame, args.reference, 2) * GYRO_UNITS[m.group(2)]
+    f = np.column_stack([log.channels[f"acc_{a}"] for a in "xyz"]) / G0
+    return MultiposLog(str(path), log.channels[ch], ref, f, log.fs, log.sources[ch]), log
+
+
 def _read_curve_axis(args):
     """(axis, (taus, adev, low, high), sample rate, samples) of ``--curve``: the axis
     ``--axis`` names, or the curve's only one."""
@@ -602,7 +716,7 @@ def _cmd_fit(args) -> int:
 
     if not args.static and not args.curve:
         raise LogError("device fit: give at least one --static LOG.csv or --curve CURVE.csv "
-                       "(with --thermal too: the thermal fit needs their noise model)")
+                       "(with --thermal or --multipos too: those fits need their noise model)")
     ci = ONE_SIGMA_CI if args.ci is None else args.ci
     if not (0 < ci < 1):
         raise LogError(f"--ci: expected a probability between 0 and 1, got {_fmt_number(ci)}")
@@ -639,8 +753,17 @@ def _cmd_fit(args) -> int:
     if args.min_tau_s is not None and not (args.min_tau_s > 0 and math.isfinite(args.min_tau_s)):
         raise LogError(f"--min-tau-s: expected a positive number of seconds, got "
                        f"{_fmt_number(args.min_tau_s)}")
+    if args.reference and not args.multipos:
+        raise LogError("--reference: only with --multipos")
+    if args.full_scale_dps is not None:
+        if not args.multipos:
+            raise LogError("--full-scale-dps: only with --multipos")
+        if not (math.isfinite(args.full_scale_dps) and 0 < args.full_scale_dps <= 1e5):
+            raise LogError(f"--full-scale-dps: expected a full scale in deg/s (0 to 1e5), got "
+                           f"{_fmt_number(args.full_scale_dps)}")
     inputs = [Path(p) for p in args.static] + ([Path(args.curve)] if args.curve else []) + \
-        ([Path(args.thermal)] if args.thermal else [])
+        ([Path(args.thermal)] if args.thermal else []) + \
+        ([Path(args.multipos)] if args.multipos else [])
     out = _Outputs(args.overwrite, "device fit")
     target = out.target(Path(args.out), tuple(inputs), recognise=_is_device_file,
                         what="device file")
@@ -662,11 +785,17 @@ def _cmd_fit(args) -> int:
     if args.thermal:
         thermal, tlog = _read_thermal(args.thermal, args)
         print(tlog.describe(), file=sys.stderr)
+    multipos = None
+    if args.multipos:
+        multipos, mlog = _read_multipos(args.multipos, args)
+        print(mlog.describe(), file=sys.stderr)
+    full_scale = None if args.full_scale_dps is None else args.full_scale_dps * DPS
     earth = None
     if args.latitude_deg is not None:
         earth = earth_projection(args.latitude_deg, args.input_axis, args.heading_deg or 0.0)
     try:
-        fit = fit_device(statics, curve, earth, ci, args.min_tau_s, thermal)
+        fit = fit_device(statics, curve, earth, ci, args.min_tau_s, thermal, multipos,
+                         full_scale)
     except ValueError as exc:
         raise LogError(f"device fit: {exc}") from None
     opts = [f"--axis {args.axis}"] if args.axis else []
@@ -674,7 +803,8 @@ def _cmd_fit(args) -> int:
         ("--min-tau-s", args.min_tau_s), ("--latitude-deg", args.latitude_deg),
         ("--input-axis", args.input_axis), ("--heading-deg", args.heading_deg),
         ("--ci", args.ci), ("--gaps", args.gaps if args.gaps != "refuse" else None),
-        ("--fs", args.fs), ("--samples", args.samples), ("--curve-ci", args.curve_ci))
+        ("--fs", args.fs), ("--samples", args.samples), ("--curve-ci", args.curve_ci),
+        ("--reference", args.reference), ("--full-scale-dps", args.full_scale_dps))
         if v is not None]
     opts += [f"--column {c}" for c in (args.column or [])]
     fit.options = opts
@@ -694,8 +824,7 @@ def _cmd_fit(args) -> int:
     finally:
         out.discard()
     for e in fit.entries:
-        iv = "" if e.low is None else f"  [{_interval_text(e.low, e.high)}]"
-        print(f"{e.key:<36} {_toml_value(e.value):>14}{iv}")
+        print(f"{e.key:<36} {_toml_value(e.value):>14} {_entry_interval(e)}")
     for k, why in fit.undetermined.items():
         print(f"{k:<36} {'-':>14}  {why}")
     for n in fit.notes:
@@ -843,6 +972,14 @@ def add_commands(subparsers) -> None:
     f.add_argument("--thermal", metavar="LOG.csv", help="a log at a constant rate through a "
                    "temperature program, with its temperature sensor (temp_c): the "
                    "temperature terms and the coil's lag (needs --static or --curve)")
+    f.add_argument("--multipos", metavar="LOG.csv", help="a multi-position, centrifuge or "
+                   "rate-table log: gyro, acc_x/y/z (specific force in the body axes) and a "
+                   "reference rate column (--reference): the g and g^2 terms and the scale "
+                   "factor; with --static or --curve for the noise model")
+    f.add_argument("--reference", metavar="COLUMN", help="--multipos: the column of the "
+                   "reference rate about the input axis, with its unit (e.g. ref_dps)")
+    f.add_argument("--full-scale-dps", type=float, help="--multipos: the gyro's full scale, "
+                   "deg/s (datasheet), at which the scale factor's non-linearity is stated")
     f.add_argument("--curve-ci", type=float, help="--curve: probability content of its "
                    "interval columns (e.g. 0.95); the fit uses its own covariance, not them")
     f.add_argument("--samples", type=int, help="--curve: samples of its record (default: its "

@@ -479,14 +479,9 @@ def _multipos_entries(fit: DeviceFit, log, ci: float, model, full_scale) -> None
 
 def _all_fog_keys() -> list:
     """Every key of a [fog] table a device file may hold (the scenario's validation)."""
-    from .scenario import _FOG_KEYS
+    from .scenario import fog_json_schema
 
-    return list(_FOG_KEYS) + [
-        "bias_instability_band_hz", "bias_instability_per_decade", "g_sens_dph_per_g",
-        "g2_sens_dph_per_g2", "misalignment_mrad", "disabled_terms", "temp_sensor_location",
-        "temp_sensor_time_constant_s", "temp_sensor_noise_c", "temp_sensor_resolution_c",
-        "temp_sensor_rate_hz", "temp_rate_window_s", "housing_time_constant_s",
-        "coil_time_constant_s"]
+    return [k for k in fog_json_schema()["properties"] if k != "source"]
 
 
 def _octaves(log: StaticLog, min_tau: float | None):
@@ -938,6 +933,13 @@ def _cmd_check(args) -> int:
     return 0
 
 
+def _cmd_schema(args) -> int:
+    from .scenario import fog_json_schema
+
+    print(json.dumps(fog_json_schema(), indent=2))
+    return 0
+
+
 def _cmd_show(args) -> int:
     p = Path(args.name)
     if p.suffix == ".toml" or p.exists():
@@ -954,7 +956,7 @@ def _cmd_show(args) -> int:
 
 
 def add_commands(subparsers) -> None:
-    """Add ``device show|fit|check`` to a ``fogbench`` argparse subparsers object."""
+    """Add ``device show|schema|fit|check`` to a ``fogbench`` argparse subparsers object."""
     d = subparsers.add_parser("device", help="device files: show a preset as one, fit one to "
                               "your logs, check one against a log")
     sub = d.add_subparsers(dest="device_command", required=True)
@@ -962,8 +964,12 @@ def add_commands(subparsers) -> None:
                        "file")
     s.add_argument("name", help="a preset of sim/presets.toml, or a device file")
     s.set_defaults(func=_warnings_as_lines(_cmd_show))
+    j = sub.add_parser("schema", help="print the JSON Schema of a device file (the [fog] keys), "
+                       "for an editor to complete and check them")
+    j.set_defaults(func=_cmd_schema)
 
-    f = sub.add_parser("fit", help="fit a device file to static logs and/or an Allan curve")
+    f = sub.add_parser("fit", help="fit a device file to static, thermal, multi-position logs "
+                       "and/or an Allan curve")
     f.add_argument("--static", action="append", default=[], metavar="LOG.csv",
                    help="a static log of one power-on (repeatable: several power-ons give the "
                         "switch-on repeatability)")

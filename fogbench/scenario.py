@@ -66,6 +66,10 @@ MAX_ESTIMATED_BYTES = 8 * 2**30
 class _Table:
     """A TOML table being read: tracks which keys were used, so the rest can be refused."""
 
+    #: When a list: every get() appends (key, kind, lo, hi, lo_open, choices) to it, so that the
+    #: validator itself declares the keys' schema (:func:`fog_json_schema`).
+    recorder: list | None = None
+
     def __init__(self, data: dict, where: str, file: str):
         if not isinstance(data, dict):
             raise ScenarioError(f"{file}: {where}: expected a table, got {type(data).__name__}")
@@ -82,6 +86,8 @@ class _Table:
             choices=None):
         """Read ``key`` as ``kind``: 'float', 'int', 'str', 'bool', 'floats', 'strs', 'table',
         'tables'. Ranges are inclusive unless ``lo_open``."""
+        if _Table.recorder is not None:
+            _Table.recorder.append((key, kind, lo, hi, lo_open, choices))
         self.used.add(key)
         if key not in self.data:
             if default is ...:
@@ -351,6 +357,57 @@ def _fog(tbl: _Table, fs: float) -> tuple[FogParams, str | None, str, tuple[str,
 
 
 DEVICE_FILE_REFUSED = ("preset", "device", "axes")   # a scenario's choices, not the device's
+
+# the [fog] keys the validator reads as "any" (checked by hand above): their JSON Schema
+_ANY_KEY_SCHEMAS = {
+    "g_sens_dph_per_g": {"description": "d1-d3 of paper 004 eq. 8 (fx, fy, fz), deg/h per g",
+                         "type": "array", "minItems": 3, "maxItems": 3, "items": {
+                             "type": "number", "minimum": -G_SENS_LIMIT_DPH,
+                             "maximum": G_SENS_LIMIT_DPH}},
+    "g2_sens_dph_per_g2": {"description": "d4-d9 of paper 004 eq. 8 (fx^2, fy^2, fz^2, fx fy, "
+                           "fy fz, fx fz), deg/h per g^2", "type": "array", "minItems": 6,
+                           "maxItems": 6, "items": {"type": "number",
+                                                    "minimum": -G_SENS_LIMIT_DPH,
+                                                    "maximum": G_SENS_LIMIT_DPH}},
+    "misalignment_mrad": {"description": "3x3, row a: axis a's sensitivity to the x, y, z rates "
+                          "(zero diagonal), mrad", "type": "array", "minItems": 3, "maxItems": 3,
+                          "items": {"type": "array", "minItems": 3, "maxItems": 3, "items": {
+                              "type": "number", "minimum": -MISALIGNMENT_LIMIT_MRAD,
+                              "maximum": MISALIGNMENT_LIMIT_MRAD}}},
+}
+
+
+def fog_json_schema() -> dict:
+    """JSON Schema (draft 2020-12) of a device file, i.e. of a scenario's [fog] keys, taken from
+    the validator itself: :func:`_fog` is run on an empty table with every read recorded (key,
+    kind, range, choices), so the schema cannot drift from what a scenario accepts. Checks the
+    validator makes beyond one key (a band's order, the flicker band below Nyquist, a zero
+    diagonal) are not in it: the loader still has the last word."""
+    calls: list = []
+    _Table.recorder = calls
+    try:
+        _fog(_Table({}, "[fog]", "schema"), 10_000.0)
+    finally:
+        _Table.recorder = None
+    props: dict = {"source": {"type": "string", "description": "where the numbers come from"}}
+    types = {"float": "number", "int": "integer", "str": "string", "bool": "boolean"}
+    for key, kind, lo, hi, lo_open, choices in calls:
+        if key in ("preset", "device", "axes") or key in props:
+            continue
+        if key in _ANY_KEY_SCHEMAS:
+            props[key] = dict(_ANY_KEY_SCHEMAS[key])
+            continue
+        item: dict = {"type": types.get(kind.rstrip("s"), "number")}
+        if lo is not None:
+            item["exclusiveMinimum" if lo_open else "minimum"] = lo
+        if hi is not None:
+            item["maximum"] = hi
+        if choices is not None:
+            item["enum"] = sorted(choices)
+        props[key] = item if kind in types else {"type": "array", "items": item}
+    return {"$schema": "https://json-schema.org/draft/2020-12/schema",
+            "title": "fogbench device file ([fog] keys)", "type": "object",
+            "additionalProperties": False, "properties": props}
 
 
 def load_device_file(path, fs: float | None = None) -> dict:

@@ -623,3 +623,37 @@ def test_multipos_fit_from_the_command_line_writes_the_g_keys(tmp_path):
     assert "g_sens_dph_per_g = [" in text and "g2_sens_dph_per_g2: default" in text
     assert "scale_factor_ppm: default" in text
     assert "not identifiable from its attitudes and rates: constant, fx^2" in text
+
+
+def test_the_json_schema_is_the_validators_own(tmp_path):
+    """`device schema` emits the keys and ranges the loader enforces: every preset's keys are in
+    it with values inside its ranges, and for every number with a range the loader accepts the
+    schema's bounds and refuses a value just past them, naming the key."""
+    import json
+
+    code, out, _ = run_cli("device", "schema")
+    assert code == 0
+    props = json.loads(out)["properties"]
+    for name, preset in load_presets().items():
+        assert set(preset) <= set(props), (name, set(preset) - set(props))
+        for k, v in preset.items():
+            p = props[k]
+            if p["type"] == "number":
+                assert p.get("minimum", -math.inf) <= v <= p.get("maximum", math.inf), (name, k)
+    dev = tmp_path / "d.toml"
+    checked = 0
+    for k, p in props.items():
+        if p["type"] != "number" or "maximum" not in p:
+            continue
+        hi = p["maximum"]
+        dev.write_text(f"{k} = {hi!r}\n")
+        try:
+            load_device_file(dev)
+        except ScenarioError as exc:   # a bound of a combination (e.g. below another key)
+            assert k in str(exc)
+            continue
+        dev.write_text(f"{k} = {hi + max(abs(hi), 1.0) * 1e-6!r}\n")
+        with pytest.raises(ScenarioError, match=k):
+            load_device_file(dev)
+        checked += 1
+    assert checked >= 25

@@ -339,6 +339,10 @@ def _mc_flags(p) -> None:
                    help="start Dask workers as batch jobs (dask-jobqueue); see --cluster-config")
     p.add_argument("--cluster-config",
                    help="TOML file with a [cluster] table: queue, cores, memory, walltime, ...")
+    p.add_argument("--fit-timeout-s", type=_number(float, 0.001, hi=86_400.0),
+                   help="stop a method's fit (or its compensation of a piece) after this many "
+                   "seconds and report it as failed (overrides [compensation] fit_timeout_s; "
+                   "default 600)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -436,6 +440,7 @@ def _os_error_text(exc: OSError) -> str:
 
 
 def main(argv=None) -> int:
+    from .scenario import FIT_TIMEOUT_ENV
     from .signals import Terminated
 
     _signals.install()
@@ -444,7 +449,17 @@ def main(argv=None) -> int:
     try:
         parser = build_parser()
         args = parser.parse_args(argv)
-        code = args.func(args)
+        before = os.environ.get(FIT_TIMEOUT_ENV)
+        if getattr(args, "fit_timeout_s", None) is not None:
+            # read by load_plan in this process and in the worker processes it starts
+            os.environ[FIT_TIMEOUT_ENV] = repr(args.fit_timeout_s)
+        try:
+            code = args.func(args)
+        finally:
+            if before is None:
+                os.environ.pop(FIT_TIMEOUT_ENV, None)
+            else:
+                os.environ[FIT_TIMEOUT_ENV] = before
     except ValueError as exc:  # ScenarioError, LogError, EngineError, ...: bad input
         _error_line(exc, str(exc))
         code = 2

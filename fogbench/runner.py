@@ -9,8 +9,11 @@ compensator of the error model can beat without also filtering the signal). A me
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
+import signal
+import threading
 import time
 import traceback
 import warnings
@@ -263,14 +266,16 @@ def run_scenario(path, progress=None, methods: list[str] | None = None, replicat
                     it.metrics["oracle_filter"] = score(of, it.piece, it.metrics["raw"])
             for ms in plan.methods:
                 say(f"{prot.name}: fit {ms.label} on {', '.join(s.describe() for s in fit_sel)}")
-                seeded = fogcomp.get_method(ms.name).random and \
+                seeded = ms.failed is None and fogcomp.get_method(ms.name).random and \
                     ms.params.get("random_state") is None
                 for k in range(method_seeds if seeded else 1):
                     seed = method_seed(sc, plan, prot, ms, fit_sel, replicate, k) if seeded \
                         else None
-                    rec, model = _fit(ms, seed, fit_piece, fit_sel, score_sel)
+                    rec, model = _fit(ms, seed, fit_piece, fit_sel, score_sel,
+                                      plan.fit_timeout_s)
                     for it in items:
-                        m, out = _score_model(model, rec, it, data[it.run], axis_j)
+                        m, out = _score_model(model, rec, it, data[it.run], axis_j,
+                                              plan.fit_timeout_s)
                         if k == 0:
                             it.metrics[ms.label] = m
                             if out is not None:
@@ -343,24 +348,60 @@ def oracle_filter(piece: Piece, params, fs_run: float) -> np.ndarray | None:
     return np.full(n, float(w @ piece.raw / w.sum()))
 
 
-def _fit(ms, seed, fit_piece: Piece, fit_sel, score_sel):
+class MethodTimeout(BaseException):
+    """A method did not return within its time limit. A BaseException, so that a method's own
+    ``except Exception`` cannot swallow it."""
+
+
+@contextlib.contextmanager
+def time_limit(seconds: float | None, what: str):
+    """Stop the code inside after ``seconds`` (a SIGALRM timer; MethodTimeout raised where the
+    code is). Only in a process's main thread (a worker process, or the serial run); elsewhere
+    (a Dask worker's thread) no limit is set. Code stuck in C that never returns to the
+    interpreter is not interrupted until it does."""
+    if (seconds is None or not hasattr(signal, "setitimer")
+            or threading.current_thread() is not threading.main_thread()):
+        yield
+        return
+
+    def expire(signum, frame):
+        raise MethodTimeout(f"{what} did not return within {seconds:g} s (fit_timeout_s)")
+
+    old = signal.signal(signal.SIGALRM, expire)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0.0)
+        signal.signal(signal.SIGALRM, old)
+
+
+#: What a method may raise and be reported as failed for (not KeyboardInterrupt: the user's)
+_METHOD_FAILURES = (Exception, MethodTimeout, SystemExit)
+
+
+def _fit(ms, seed, fit_piece: Piece, fit_sel, score_sel, timeout_s: float | None = None):
     """Make and fit one method; a failure is recorded (rec["status"]), never raised."""
     rec = {"fit_on": [s.describe() for s in fit_sel],
            "scored_on": [s.describe() for s in score_sel]}
     if seed is not None:
         rec["random_state"] = seed
+    if getattr(ms, "failed", None):
+        rec.update(status="failed", error=ms.failed, warnings=[])
+        return rec, None
     model = None
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            model = fogcomp.make_method(ms.name, **ms.params)
-            if seed is not None:
-                model.random_state = seed
-            t0 = time.perf_counter()
-            model.fit(fit_piece.gyro(), fit_piece.truth)
-            rec["fit_time_s"] = time.perf_counter() - t0
+            with time_limit(timeout_s, f"{ms.label}: fit"):
+                model = fogcomp.make_method(ms.name, **ms.params)
+                if seed is not None:
+                    model.random_state = seed
+                t0 = time.perf_counter()
+                model.fit(fit_piece.gyro(), fit_piece.truth)
+                rec["fit_time_s"] = time.perf_counter() - t0
             rec["status"] = "ok"
-        except Exception as exc:  # any failure of a method is reported, not fatal
+        except _METHOD_FAILURES as exc:  # any failure of a method is reported, not fatal
             rec["status"] = "failed"
             rec["error"] = f"{type(exc).__name__}: {exc}"
             rec["traceback"] = traceback.format_exc(limit=3)
@@ -378,16 +419,21 @@ def _fit(ms, seed, fit_piece: Piece, fit_sel, score_sel):
     return rec, model
 
 
-def _score_model(model, rec: dict, it: "Scored", rd: RunData, axis_j: int):
+def _score_model(model, rec: dict, it: "Scored", rd: RunData, axis_j: int,
+                 timeout_s: float | None = None):
     """Compensate one scored piece with a fitted model: (metrics, output or None)."""
     if model is None:
         return {"status": "failed", "error": rec["error"]}, None
     try:
-        t0 = time.perf_counter()
-        out = model.compensate(it.piece.gyro())
-        dt = time.perf_counter() - t0
-    except Exception as exc:
+        with time_limit(timeout_s, "compensate"):
+            t0 = time.perf_counter()
+            out = np.asarray(model.compensate(it.piece.gyro()), dtype=float)
+            dt = time.perf_counter() - t0
+    except _METHOD_FAILURES as exc:
         return {"status": "failed", "error": f"{type(exc).__name__}: {exc}"}, None
+    if out.shape != it.piece.raw.shape:
+        return {"status": "failed", "error": f"compensated output has shape {out.shape}, "
+                f"expected {it.piece.raw.shape}"}, None
     if not np.all(np.isfinite(out)):
         return {"status": "failed", "error": "compensated output is not finite"}, None
     m = score(out, it.piece, it.metrics["raw"])

@@ -772,6 +772,7 @@ class MethodSpec:
     group: str | None = None        # the [[methods]] label a sweep member belongs to
     setting: dict = field(default_factory=dict)   # the swept values of this member
     paper_setting: bool = False     # this member has the paper's (or the default) values
+    failed: str | None = None       # a plug-in that cannot run: why (reported, the run goes on)
 
 
 @dataclass(frozen=True)
@@ -811,8 +812,19 @@ class Claim:
     run: str | None = None
 
 
+#: Longest a method's fit (and, separately, its compensation of one piece) may take, s, before it
+#: is stopped and reported as failed ([compensation] fit_timeout_s; fogbench run/suite
+#: --fit-timeout-s). The slowest built-in fit of the suite (wnn, paper 003's 13,000 samples) takes
+#: about a minute on a laptop core.
+DEFAULT_FIT_TIMEOUT_S = 600.0
+#: The environment variable ``--fit-timeout-s`` sets: it overrides the file's fit_timeout_s.
+FIT_TIMEOUT_ENV = "FOGBENCH_FIT_TIMEOUT_S"
+
+
 @dataclass(frozen=True)
 class Plan:
+    """A scenario's compensation plan (protocols, methods, bounds, claims, replicates)."""
+
     protocols: tuple[Protocol, ...]
     methods: tuple[MethodSpec, ...]
     bounds: tuple[Bound, ...]
@@ -825,6 +837,7 @@ class Plan:
     method_seeds: int = 1          # [montecarlo] method_seeds: random starts per fit
     mc_seed: int | None = None     # [montecarlo] seed (default: a hash of the scenario name)
     map: "MapSpec | None" = None   # [map]: the claims at other values of open keys
+    fit_timeout_s: float = DEFAULT_FIT_TIMEOUT_S   # [compensation]: per fit and per compensate
 
 
 def _segment_bounds(run: Run, fs: float) -> list[tuple[int, int]]:
@@ -904,9 +917,34 @@ def _selection(v, where: str, file: str, run_names: set[str], runs: dict[str, Ru
     return sel
 
 
+def _builtin_methods() -> set:
+    from fogcomp import available_methods, get_method
+
+    return {n for n in available_methods() if get_method(n).__module__.startswith("fogcomp.")}
+
+
+_WARNED: set = set()
+
+
+def _plugin_warning(file, label: str, why: str) -> None:
+    import sys
+
+    if (str(file), label) in _WARNED:       # once per process (load_plan runs per replicate)
+        return
+    _WARNED.add((str(file), label))
+    print(f"fogbench: warning: {file}: method {label!r} will be reported as failed: {why}",
+          file=sys.stderr)
+
+
 def load_plan(sc: Scenario) -> Plan:
-    """Validate the scenario's [[protocols]], [[methods]], [[bounds]] and [[paper]] tables."""
-    from fogcomp import get_method, make_method
+    """Validate the scenario's [[protocols]], [[methods]], [[bounds]] and [[paper]] tables.
+
+    A method name is a built-in, an entry point of the group ``fogcomp.methods`` or
+    ``module:Class`` of an installed module (its code runs: the scenario names it). Unknown
+    names and bad hyperparameters are refused naming the key; a plug-in that is installed but
+    does not import, is no usable method, or whose constructor raises is kept with ``failed``
+    set (the run reports it as failed and goes on)."""
+    from fogcomp import PluginError, get_method, make_method
 
     file = sc.path
     extra = _Table(dict(sc.extra), "top level", file)
@@ -917,6 +955,16 @@ def load_plan(sc: Scenario) -> Plan:
     axis = opts.get("axis", "str", sc.axes[0], choices=set(sc.axes))
     ci = opts.get("ci", "bool", False)
     notes = tuple(opts.get("notes", "strs", []))
+    fit_timeout_s = opts.get("fit_timeout_s", "float", DEFAULT_FIT_TIMEOUT_S, lo=0.0,
+                             hi=86_400.0, lo_open=True)
+    import os
+
+    if os.environ.get(FIT_TIMEOUT_ENV):
+        try:
+            fit_timeout_s = float(os.environ[FIT_TIMEOUT_ENV])
+        except ValueError:
+            raise ScenarioError(f"environment variable {FIT_TIMEOUT_ENV}: expected seconds, got "
+                                f"{os.environ[FIT_TIMEOUT_ENV]!r}") from None
     opts.done()
 
     protocols = []
@@ -967,12 +1015,22 @@ def load_plan(sc: Scenario) -> Plan:
     for i, mt in enumerate(extra.get("methods", "tables")):
         t = _Table(mt, f"[[methods]][{i}]", file)
         mname = t.get("name", "str")
+        params = dict(t.get("params", "table", {}))
+        label = t.get("label", "name", mname.rpartition(":")[2] if ":" in mname else mname)
         try:
             get_method(mname)
+        except PluginError as exc:      # installed but unusable: reported as failed, run goes on
+            msg = name_problem(label)
+            if msg:
+                raise t.err("label", msg) from None
+            t.get("sweep", "table", None)
+            t.done()
+            _plugin_warning(file, label, str(exc))
+            methods.append(MethodSpec(mname, label, params, failed=str(exc)))
+            continue
         except KeyError as exc:
             raise t.err("name", exc.args[0]) from None
-        params = dict(t.get("params", "table", {}))
-        label = t.get("label", "name", mname)
+        builtin = mname in _builtin_methods()
         sweep = t.get("sweep", "table", None)
         members = [({}, True)]
         if sweep is not None:
@@ -980,18 +1038,25 @@ def load_plan(sc: Scenario) -> Plan:
         for setting, paper in members:
             # "default" in a sweep: the constructor's default (which TOML cannot write: None)
             full = {**params, **{k: v for k, v in setting.items() if v != SWEEP_DEFAULT}}
+            failed = None
             try:
                 make_method(mname, **full).check_params()
             except (TypeError, ValueError) as exc:
                 what = f"method {label!r}" + (f" with {setting}" if setting else "")
                 raise t.err("sweep" if setting else "params", f"{what}: {exc}") from None
+            except Exception as exc:  # noqa: BLE001 (a plug-in's constructor may do anything)
+                if builtin:
+                    raise
+                failed = (f"method {mname!r}: its constructor or check_params raised "
+                          f"{type(exc).__name__}: {exc}")
+                _plugin_warning(file, label, failed)
             mlabel = label if not setting else label + "." + ".".join(
                 f"{k}-{v}" for k, v in setting.items())
             msg = name_problem(mlabel)
             if msg:
                 raise t.err("sweep", f"member label {msg}")
             methods.append(MethodSpec(mname, mlabel, full, group=label if sweep else None,
-                                      setting=setting, paper_setting=paper))
+                                      setting=setting, paper_setting=paper, failed=failed))
         t.done()
     if not methods:
         raise extra.err("methods", "expected at least one [[methods]] table")
@@ -1050,7 +1115,7 @@ def load_plan(sc: Scenario) -> Plan:
     extra.used.add("map")
     extra.done()
     plan = Plan(tuple(protocols), tuple(methods), tuple(bounds), tuple(paper), axis, ci, notes,
-                tuple(claims), replicates, method_seeds, mc_seed)
+                tuple(claims), replicates, method_seeds, mc_seed, fit_timeout_s=fit_timeout_s)
     spec = _load_map(extra, sc, plan)
     return replace(plan, map=spec) if spec is not None else plan
 

@@ -15,6 +15,7 @@ import hashlib
 import io
 import json
 import os
+import re
 import tempfile
 import zipfile
 import zlib
@@ -331,8 +332,25 @@ class Compensator:
 
 
 # ---------------------------------------------------------------------------------------------
-# Registry
+# Registry: the built-in methods, plug-ins declared as entry points of the group
+# ``fogcomp.methods`` (``importlib.metadata``, as pytest finds its plug-ins), and any class named
+# ``module:Class`` of an importable, installed module (never a file path).
+ENTRY_POINT_GROUP = "fogcomp.methods"
 _REGISTRY: dict[str, type[Compensator]] = {}
+_PLUGIN_PROBLEMS: dict[str, str] = {}     # entry-point name -> why it could not be loaded
+_ENTRY_POINTS_READ = False
+_CLASS_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*:"
+                         r"[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*$")
+
+
+class PluginError(KeyError):
+    """A plug-in method that cannot be used: its module does not import, or what it names is
+    not a usable :class:`Compensator` subclass. The message gives the reason. (A KeyError, as an
+    unknown name is, so that callers refusing unknown methods refuse these too; the runner tells
+    them apart and reports the method as failed instead.)"""
+
+    def __str__(self) -> str:
+        return str(self.args[0]) if self.args else ""
 
 
 def register(cls: type[Compensator]) -> type[Compensator]:
@@ -345,19 +363,144 @@ def register(cls: type[Compensator]) -> type[Compensator]:
     return cls
 
 
+def class_problem(cls) -> str | None:
+    """Why ``cls`` cannot be a method (None: it can): the structural contract checked before
+    any data (the behaviour is :func:`fogcomp.check_method`'s)."""
+    import inspect
+
+    if not (isinstance(cls, type) and issubclass(cls, Compensator)) or cls is Compensator:
+        return f"{cls!r} is not a subclass of fogcomp.Compensator"
+    if not isinstance(cls.name, str) or not cls.name:
+        return f"{cls.__name__} has no registry name (class attribute 'name')"
+    bad = [r for r in cls.requires if r not in INPUT_NAMES] if isinstance(
+        cls.requires, tuple) else ["(requires is not a tuple)"]
+    if bad:
+        return (f"{cls.__name__}.requires names {bad}; expected a tuple among "
+                f"{list(INPUT_NAMES)}")
+    for m in ("_fit", "_estimate", "_state", "_restore"):
+        if getattr(cls, m) is getattr(Compensator, m):
+            return f"{cls.__name__} does not implement {m}"
+    try:
+        sig = inspect.signature(cls.__init__)
+    except (TypeError, ValueError) as exc:
+        return f"{cls.__name__}.__init__ has no readable signature ({exc})"
+    required = [p.name for p in list(sig.parameters.values())[1:]
+                if p.default is inspect.Parameter.empty
+                and p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD)]
+    if required:
+        return (f"{cls.__name__}.__init__ has hyperparameters without defaults {required} "
+                "(every hyperparameter needs a default, the method's own setting)")
+    if any(p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD) for p in sig.parameters.values()):
+        return f"{cls.__name__}.__init__ takes *args or **kwargs (name every hyperparameter)"
+    return None
+
+
+def _read_entry_points() -> None:
+    """Load the plug-ins of the ``fogcomp.methods`` entry-point group once; one that fails to
+    import or is no usable method is kept in ``_PLUGIN_PROBLEMS`` with the reason."""
+    global _ENTRY_POINTS_READ
+    if _ENTRY_POINTS_READ:
+        return
+    _ENTRY_POINTS_READ = True
+    from importlib.metadata import entry_points
+
+    for ep in entry_points(group=ENTRY_POINT_GROUP):
+        if ep.name in _REGISTRY:
+            if getattr(_REGISTRY[ep.name], "__module__", "").startswith("fogcomp."):
+                _PLUGIN_PROBLEMS[ep.name] = (f"entry point {ep.name!r} ({ep.value}) has the "
+                                             "name of a built-in method")
+            continue
+        try:
+            cls = ep.load()
+        except BaseException as exc:  # noqa: BLE001 (a plug-in's import may do anything)
+            if isinstance(exc, KeyboardInterrupt):
+                raise
+            _PLUGIN_PROBLEMS[ep.name] = (f"entry point {ep.name!r} ({ep.value}) does not "
+                                         f"import: {type(exc).__name__}: {exc}")
+            continue
+        problem = class_problem(cls)
+        if problem is None and cls.name != ep.name:
+            problem = (f"entry point {ep.name!r} ({ep.value}) names a class whose 'name' is "
+                       f"{cls.name!r}; they must agree")
+        if problem:
+            _PLUGIN_PROBLEMS[ep.name] = f"entry point {ep.name!r}: {problem}"
+        else:
+            _REGISTRY[ep.name] = cls
+
+
 def available_methods() -> list[str]:
-    """Registered method names, sorted."""
+    """Method names, sorted: the built-ins and the plug-ins of the entry-point group
+    ``fogcomp.methods`` that load (:func:`plugin_problems` lists those that do not)."""
     from . import methods  # noqa: F401  (registers the built-in methods)
 
+    _read_entry_points()
     return sorted(_REGISTRY)
 
 
+def plugin_problems() -> dict[str, str]:
+    """Entry-point plug-ins that could not be loaded: name -> reason."""
+    available_methods()
+    return dict(_PLUGIN_PROBLEMS)
+
+
+def _import_class(name: str) -> type[Compensator]:
+    import importlib
+
+    if not _CLASS_NAME.match(name):
+        raise KeyError(f"method {name!r}: a plug-in class is named module:Class (an importable, "
+                       "installed module, e.g. mypkg.methods:MyMethod), never a file path")
+    mod_name, _, qual = name.partition(":")
+    try:
+        obj = importlib.import_module(mod_name)
+    except ModuleNotFoundError as exc:
+        if exc.name and mod_name.startswith(exc.name):
+            raise KeyError(f"method {name!r}: no module {exc.name!r} is installed (pip install "
+                           "the plug-in's package into this environment)") from None
+        raise PluginError(f"method {name!r}: its module does not import: "
+                          f"ModuleNotFoundError: {exc}") from None
+    except BaseException as exc:  # noqa: BLE001 (a plug-in's import may do anything)
+        if isinstance(exc, KeyboardInterrupt):
+            raise
+        raise PluginError(f"method {name!r}: its module does not import: "
+                          f"{type(exc).__name__}: {exc}") from None
+    for part in qual.split("."):
+        if not hasattr(obj, part):
+            raise KeyError(f"method {name!r}: module {mod_name!r} has no {qual!r}")
+        obj = getattr(obj, part)
+    problem = class_problem(obj)
+    if problem:
+        raise PluginError(f"method {name!r}: {problem}")
+    return obj
+
+
 def get_method(name: str) -> type[Compensator]:
-    """The class registered under ``name``."""
+    """The class registered under ``name`` (a built-in or an entry-point plug-in), or the class
+    ``module:Class`` names.
+
+    Raises
+    ------
+    KeyError
+        An unknown name (the message lists the available ones).
+    PluginError
+        A plug-in that does not import or is not a usable method (the message says why).
+    """
     names = available_methods()
-    if name not in _REGISTRY:
-        raise KeyError(f"unknown method {name!r}; available: {', '.join(names)}")
-    return _REGISTRY[name]
+    if name in _REGISTRY:
+        return _REGISTRY[name]
+    if name in _PLUGIN_PROBLEMS:
+        raise PluginError(_PLUGIN_PROBLEMS[name])
+    if ":" in name:
+        return _import_class(name)
+    raise KeyError(f"unknown method {name!r}; available: {', '.join(names)} (or a plug-in "
+                   "named module:Class)")
+
+
+def method_id(cls: type[Compensator]) -> str:
+    """The name that finds ``cls`` again (:func:`get_method`): its registry name when it is
+    registered under it, else ``module:Class``."""
+    if _REGISTRY.get(cls.name) is cls:
+        return cls.name
+    return f"{cls.__module__}:{cls.__qualname__}"
 
 
 def make_method(name: str, **hyperparameters) -> Compensator:
@@ -494,7 +637,7 @@ def save_model(model: Compensator, path: str | os.PathLike) -> tuple[Path, Path]
     doc = {
         "format": FORMAT_NAME,
         "version": FORMAT_VERSION,
-        "method": model.name,
+        "method": method_id(type(model)),
         "hyperparameters": _json_safe(params),
         "state": _json_safe(info),
         "arrays": {k: {"shape": list(a.shape), "dtype": a.dtype.str} for k, a in arrays.items()},

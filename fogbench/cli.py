@@ -345,6 +345,18 @@ def _mc_flags(p) -> None:
                    "default 600)")
 
 
+def _cmd_check_method(args) -> int:
+    import fogcomp
+
+    try:
+        fogcomp.get_method(args.method)
+    except KeyError as exc:          # unknown name, or a plug-in that does not import
+        raise ValueError(f"check-method: {exc.args[0]}") from None
+    report = fogcomp.check_method(args.method, probe_samples=args.probe_samples)
+    print(report)
+    return 0 if report.ok else 1
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="fogbench", description="FOG error-compensation testbench")
     sub = p.add_subparsers(dest="command", required=True)
@@ -411,6 +423,12 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--noise-seeds", type=_number(int, 1, hi=1000), default=20,
                    help="records per case of the noise identifier's table (default 20)")
     b.set_defaults(func=_cmd_bench)
+    k = sub.add_parser("check-method", help="run fogcomp.check_method on a method: the "
+                       "contract every compensator keeps, rule by rule")
+    k.add_argument("method", help="a method name, an entry-point plug-in or module:Class")
+    k.add_argument("--probe-samples", type=_number(int, 100, hi=10_000_000), default=100_000,
+                   help="length of the probe record (default 100000)")
+    k.set_defaults(func=_cmd_check_method)
     from .reallog import add_commands
 
     add_commands(sub)  # allan, calibrate, compensate: a user's own recorded logs

@@ -25,6 +25,7 @@ from .base import (
     register,
     save_model,
 )
+from .conformance import check_method
 
 __all__ = [
     "Compensator",
@@ -36,6 +37,7 @@ __all__ = [
     "method_id",
     "plugin_problems",
     "available_methods",
+    "check_method",
     "get_method",
     "load_model",
     "make_method",

@@ -25,6 +25,9 @@ def _wavelet(wavelet) -> pywt.Wavelet:
     """A PyWavelets discrete wavelet from its name (or the wavelet itself)."""
     if isinstance(wavelet, pywt.Wavelet):
         return wavelet
+    if not isinstance(wavelet, str):
+        raise ValueError(f"wavelet: expected the name of a discrete wavelet (a string, e.g. "
+                         f"'db6') or a pywt.Wavelet, got {type(wavelet).__name__} {wavelet!r}")
     try:
         return pywt.Wavelet(wavelet)
     except (ValueError, TypeError):

@@ -343,6 +343,10 @@ def _mc_flags(p) -> None:
                    help="stop a method's fit (or its compensation of a piece) after this many "
                    "seconds and report it as failed (overrides [compensation] fit_timeout_s; "
                    "default 600)")
+    p.add_argument("--with-method", action="append", metavar="NAME",
+                   help="add this method (a built-in, an entry-point plug-in or module:Class; "
+                   "its defaults) to every scenario's [[methods]] (repeatable); it is written "
+                   "into the run folder's scenario.toml")
 
 
 def _cmd_check_method(args) -> int:
@@ -457,8 +461,30 @@ def _os_error_text(exc: OSError) -> str:
     return f"{text} ({where})" if where else text
 
 
+def _method_environment(args) -> dict:
+    """--fit-timeout-s and --with-method as the environment the scenario loader reads (so that
+    worker processes see them too); a --with-method name that is unknown is refused here."""
+    import fogcomp
+
+    from .scenario import FIT_TIMEOUT_ENV, WITH_METHODS_ENV
+
+    env = {}
+    if getattr(args, "fit_timeout_s", None) is not None:
+        env[FIT_TIMEOUT_ENV] = repr(args.fit_timeout_s)
+    names = getattr(args, "with_method", None) or []
+    for n in names:
+        try:
+            fogcomp.get_method(n)
+        except fogcomp.PluginError:
+            pass                 # installed but broken: the run reports it as failed
+        except KeyError as exc:
+            raise ValueError(f"--with-method: {exc.args[0]}") from None
+    if names:
+        env[WITH_METHODS_ENV] = ",".join(dict.fromkeys(names))
+    return env
+
+
 def main(argv=None) -> int:
-    from .scenario import FIT_TIMEOUT_ENV
     from .signals import Terminated
 
     _signals.install()
@@ -467,17 +493,18 @@ def main(argv=None) -> int:
     try:
         parser = build_parser()
         args = parser.parse_args(argv)
-        before = os.environ.get(FIT_TIMEOUT_ENV)
-        if getattr(args, "fit_timeout_s", None) is not None:
-            # read by load_plan in this process and in the worker processes it starts
-            os.environ[FIT_TIMEOUT_ENV] = repr(args.fit_timeout_s)
+        env = _method_environment(args)
+        before = {k: os.environ.get(k) for k in env}
+        # read by load_scenario/load_plan here and in the worker processes this run starts
+        os.environ.update(env)
         try:
             code = args.func(args)
         finally:
-            if before is None:
-                os.environ.pop(FIT_TIMEOUT_ENV, None)
-            else:
-                os.environ[FIT_TIMEOUT_ENV] = before
+            for k, v in before.items():
+                if v is None:
+                    os.environ.pop(k, None)
+                else:
+                    os.environ[k] = v
     except ValueError as exc:  # ScenarioError, LogError, EngineError, ...: bad input
         _error_line(exc, str(exc))
         code = 2

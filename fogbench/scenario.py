@@ -626,6 +626,12 @@ def load_scenario(path: str | Path, extra_sections: tuple[str, ...] = (),
     if overrides:
         text = text + "\n# claim-map point: these values set over the file's\n" + "".join(
             f"# {k} = {json.dumps(v)}\n" for k, v in overrides.items())
+    added = [n for n in with_methods() if isinstance(doc.get("methods"), list)
+             and n not in {m.get("name") for m in doc["methods"] if isinstance(m, dict)}]
+    if added:   # --with-method: part of the text, so digests, --resume and the run folder see it
+        doc["methods"].extend({"name": n} for n in added)
+        text = text + "\n# --with-method: methods added to the file's\n" + "".join(
+            f"[[methods]]\nname = {json.dumps(n)}\n" for n in added)
     top = _Table(doc, "top level", file)
     sc = _Table(top.get("scenario", "table"), "[scenario]", file)
     name = sc.get("name", "name")
@@ -819,6 +825,16 @@ class Claim:
 DEFAULT_FIT_TIMEOUT_S = 600.0
 #: The environment variable ``--fit-timeout-s`` sets: it overrides the file's fit_timeout_s.
 FIT_TIMEOUT_ENV = "FOGBENCH_FIT_TIMEOUT_S"
+#: The environment variable ``--with-method`` sets (names separated by commas): methods added
+#: to every scenario that has [[methods]] (unless it names them already), with their defaults.
+WITH_METHODS_ENV = "FOGBENCH_WITH_METHODS"
+
+
+def with_methods() -> list[str]:
+    """The method names ``--with-method`` adds to every scenario (``WITH_METHODS_ENV``)."""
+    import os
+
+    return [n for n in os.environ.get(WITH_METHODS_ENV, "").split(",") if n]
 
 
 @dataclass(frozen=True)

@@ -439,6 +439,9 @@ def build_parser() -> argparse.ArgumentParser:
     from .device import add_commands as add_device_commands
 
     add_device_commands(sub)  # device show, fit, check: a device file from a user's logs
+    from .compare import add_command as add_compare
+
+    add_compare(sub)  # compare: every method across scenarios
     return p
 
 

@@ -304,6 +304,17 @@ def _summary_path(out: Path, partial: bool) -> Path:
     return readme
 
 
+def _write_compare(out: Path) -> Path | None:
+    """``fogbench compare`` over the suite folder; a failure is said, not fatal."""
+    from .compare import CompareError, write_compare
+
+    try:
+        return write_compare([out], out)
+    except CompareError as exc:
+        print(f"fogbench: warning: compare: {exc}", file=sys.stderr)
+        return None
+
+
 def run_suite(scenario_dir: Path, out: Path, check: bool = False, jobs: int | None = None,
               only_ci: bool = False, recording: bool = True, quiet: bool = False,
               names: list[str] | None = None, replicates: int | None = None,
@@ -447,6 +458,13 @@ def _suite_body(plans, chosen, first_file, results, out, readme, check, jobs, re
         else:
             violations.append(f"{r['name']}: scenario failed: {r['error']}")
     summary = summary_markdown(results, plans, out, violations)
+    compared = _write_compare(out)
+    if compared:
+        summary += ("\n## Every method across scenarios\n\n"
+                    f"[{compared.name}]({compared.name}): every method (plug-ins included) of "
+                    "every scenario on its headline metric, improvement over raw with its "
+                    "paired interval over replicates, the oracle beside it, rank with its "
+                    "probability, failures, in-sample flagged (`fogbench compare`).\n")
     atomic_write_text(readme, summary)
     print(f"fogbench suite: {sum(r['ok'] for r in results)}/{len(results)} scenario(s) ran in "
           f"{time.monotonic() - t0:.1f} s; summary in {readme}")

@@ -218,6 +218,11 @@ def test_suite_check_fails_on_a_broken_method_and_passes_otherwise(tmp_path, cap
                      quiet=True) == 0
     summary = (tmp_path / "rep" / "README.md").read_text()
     assert "[small](small/report.md)" in summary and "Every declared bound holds." in summary
+    # every method across scenarios, beside the summary and linked from it
+    assert "[compare.md](compare.md)" in summary
+    cmp = json.loads((tmp_path / "rep" / "compare.json").read_text())
+    assert cmp["format"] == "fogbench-compare" and cmp["rows"]
+    assert (tmp_path / "rep" / "compare.png").stat().st_size > 0
 
     bad_dir = tmp_path / "bad"
     bad_dir.mkdir()

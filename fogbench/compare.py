@@ -1,0 +1,279 @@
+"""``fogbench compare``: every method of every scenario on one table and one figure.
+
+From run directories (or the suite folder holding them), for every scenario and protocol, every
+method (plug-ins included) on the scenario's headline metric: its improvement over the raw
+output as a paired interval over replicates (the improvement is computed replicate by replicate
+on the same data, so the interval is of the paired difference), the oracle's beside it (and the
+filter oracle's where the scenario has one), the method's most frequent rank among the methods
+with the probability of that rank over replicates, its failures, and whether it was scored on
+the data it was fitted on (a paper's in-sample protocol, flagged).
+
+The headline metric of a scenario is the metric of its first claim (what the scenario is about),
+else ``improvement_rmse_pct``. Improvements are in percent of the raw output's value (positive:
+better than raw). Intervals: 95 % Student t over replicates (``fogbench.stats.summarize``); a
+single replicate has none.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from . import stats as S
+from .io import atomic_write_text
+
+__all__ = ["FORMAT", "collect", "compare_markdown", "write_compare", "add_command"]
+
+FORMAT = "fogbench-compare"
+TITLE = "# fogbench compare: every method across scenarios"
+DEFAULT_METRIC = "improvement_rmse_pct"
+REFERENCES = ("raw", "oracle", "oracle_filter")
+FLOOR_PCT = -100.0      # the figure shows worse than this as an arrow with its value
+
+
+class CompareError(ValueError):
+    """A run directory that cannot be compared (named with the reason)."""
+
+
+def _run_dirs(paths) -> list[Path]:
+    dirs = []
+    for p in map(Path, paths):
+        if (p / "metrics.json").is_file():
+            dirs.append(p)
+        elif p.is_dir():
+            found = sorted(d for d in p.iterdir() if (d / "metrics.json").is_file())
+            if not found:
+                raise CompareError(f"{p}: neither a run directory (metrics.json) nor a folder "
+                                   "of them")
+            dirs += found
+        else:
+            raise CompareError(f"{p}: no such run directory")
+    return dirs
+
+
+def _values(seq) -> np.ndarray:
+    return np.array([np.nan if v is None else float(v) for v in seq], dtype=float)
+
+
+def _one_replicate(doc: dict, d: Path) -> dict:
+    """The series of a single-replicate run (no key 'montecarlo'): per protocol, metric and
+    method the mean over its scored runs, as a series of one."""
+    prots = doc.get("protocols")
+    if not isinstance(prots, dict):
+        raise CompareError(f"{d / 'metrics.json'}: no key 'protocols'; compare reads run "
+                           "directories of fogbench run or suite")
+    out: dict = {}
+    for prot, body in prots.items():
+        runs = (body or {}).get("runs") or {}
+        for run in runs.values():
+            for label, m in (run or {}).items():
+                if not isinstance(m, dict):
+                    continue
+                for metric, v in m.items():
+                    if isinstance(v, (int, float)) and not isinstance(v, bool):
+                        out.setdefault(prot, {}).setdefault(metric, {}).setdefault(
+                            label, []).append(float(v))
+        for metric, by_label in out.get(prot, {}).items():
+            for label, vals in by_label.items():
+                by_label[label] = [float(np.mean(vals)) if len(vals) == len(runs) else None]
+    return out
+
+
+def _headline(doc: dict) -> str:
+    claims = (doc.get("montecarlo") or {}).get("claims") or []
+    return claims[0]["metric"] if claims else DEFAULT_METRIC
+
+
+def collect(paths) -> list[dict]:
+    """One row per (scenario, protocol, method) of the run directories ``paths``."""
+    rows = []
+    for d in _run_dirs(paths):
+        try:
+            doc = json.loads((d / "metrics.json").read_text())
+        except (OSError, ValueError) as exc:
+            raise CompareError(f"{d / 'metrics.json'}: cannot be read ({exc})") from None
+        mc = doc.get("montecarlo")
+        if not isinstance(mc, dict) or "series" not in mc:
+            mc = {"series": _one_replicate(doc, d)}
+        metric = _headline(doc)
+        better = "higher" if metric.endswith("_pct") else "lower"
+        for prot, by_metric in mc["series"].items():
+            series = by_metric.get(metric)
+            if not series:
+                continue
+            in_sample = bool(doc.get("protocols", {}).get(prot, {}).get("in_sample", False))
+            vals = {lab: _values(v) for lab, v in series.items()}
+            methods = [m for m in vals if m not in REFERENCES]
+            if not methods:
+                continue
+            R = len(next(iter(vals.values())))
+            M = np.column_stack([vals[m] for m in methods])
+            sign = -1.0 if better == "higher" else 1.0
+            key = np.where(np.isfinite(M), sign * M, np.inf)      # a failure ranks last
+            # 1 + the methods strictly better in that replicate: equal values share a rank
+            ranks = 1 + np.sum(key[:, None, :] < key[:, :, None], axis=2)
+            refs = {lab: S.summarize(vals[lab]).as_dict() for lab in REFERENCES[1:]
+                    if lab in vals}
+            for j, m in enumerate(methods):
+                counts = np.bincount(ranks[:, j], minlength=len(methods) + 1)
+                mode = int(np.argmax(counts))
+                name = doc.get("scenario", d.name)
+                rows.append({
+                    "scenario": name if d.name == name else f"{name} ({d.name})",
+                    "run_dir": str(d),
+                    "protocol": prot, "in_sample": in_sample, "metric": metric,
+                    "better": better, "method": m, "replicates": R,
+                    "failed": int(np.sum(~np.isfinite(vals[m]))),
+                    "value": S.summarize(vals[m]).as_dict(),
+                    "rank": mode, "rank_probability": float(counts[mode] / R),
+                    "methods_ranked": len(methods), **{lab: refs[lab] for lab in refs}})
+    return rows
+
+
+def _iv(s: dict | None) -> str:
+    if not s or s.get("mean") is None:
+        return "–"
+    lo, hi = s.get("ci_low"), s.get("ci_high")
+    if lo is None or hi is None or not math.isfinite(lo):
+        return f"{s['mean']:.3g}"
+    return f"{s['mean']:.3g} [{lo:.3g}, {hi:.3g}]"
+
+
+def compare_markdown(rows: list[dict]) -> str:
+    L = [TITLE, "",
+         "Per scenario and protocol, every method on the scenario's headline metric (its first "
+         "claim's, else improvement_rmse_pct: percent of the raw output's RMS error removed; "
+         "positive is better than raw): the mean over replicates with its 95 % paired "
+         "t-interval (the improvement is taken replicate by replicate on the same data), the "
+         "oracle's (the true deterministic error removed) and the filter oracle's (the best "
+         "estimate given the true noise model, where the true rate is constant) beside it, the "
+         "method's most frequent rank among the methods and the share of replicates where it "
+         "had that rank, and its failed replicates. In-sample: scored on the data it was "
+         "fitted on (a paper's protocol, flagged).", "",
+         "![every method across scenarios](compare.png)", "",
+         "| scenario | protocol | metric | method | improvement [95 % CI] | oracle | filter "
+         "oracle | rank (P) | failed | in-sample |",
+         "|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        L.append(f"| {r['scenario']} | {r['protocol']} | {r['metric']} | {r['method']} | "
+                 f"{_iv(r['value'])} | {_iv(r.get('oracle'))} | {_iv(r.get('oracle_filter'))} | "
+                 f"{r['rank']} of {r['methods_ranked']} ({r['rank_probability']:.0%}) | "
+                 f"{r['failed']} of {r['replicates']} | {'yes' if r['in_sample'] else 'no'} |")
+    return "\n".join(L) + "\n"
+
+
+def _figure(rows: list[dict], path: str) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .io import save_figure
+
+    n = max(len(rows), 1)
+    fig, ax = plt.subplots(figsize=(9.0, 1.2 + 0.24 * n))
+    y = np.arange(len(rows))[::-1]
+    labels = []
+    last = None
+    for yi, r in zip(y, rows):
+        v = r["value"]
+        group = (r["scenario"], r["protocol"])
+        labels.append(f"{r['scenario']} / {r['protocol']}: {r['method']}" if group != last
+                      else r["method"])
+        last = group
+        if v.get("mean") is not None and v["mean"] < FLOOR_PCT:   # far worse than raw
+            ax.plot(FLOOR_PCT, yi, "<", color="C3" if r["in_sample"] else "C0", ms=5)
+            ax.annotate(f"{v['mean']:.3g}", (FLOOR_PCT, yi), xytext=(6, 0),
+                        textcoords="offset points", fontsize=6, va="center")
+        elif v.get("mean") is not None:
+            lo = v.get("ci_low") if v.get("ci_low") is not None else v["mean"]
+            hi = v.get("ci_high") if v.get("ci_high") is not None else v["mean"]
+            ax.errorbar(v["mean"], yi, xerr=[[v["mean"] - max(lo, FLOOR_PCT)],
+                                             [hi - v["mean"]]], fmt="o",
+                        color="C3" if r["in_sample"] else "C0", ms=4, capsize=2)
+        o = r.get("oracle_filter") or r.get("oracle")
+        if o and o.get("mean") is not None:
+            ax.plot(o["mean"], yi, "|", color="k", ms=9)
+        if r["failed"]:
+            ax.annotate(f"{r['failed']} failed", (1.0, yi), xycoords=("axes fraction", "data"),
+                        fontsize=6, ha="right", va="center", color="C1")
+    ax.axvline(0.0, color="0.6", lw=0.8)
+    left, right = ax.get_xlim()
+    ax.set_xlim(max(left, FLOOR_PCT - 5.0), max(right, 5.0))
+    ax.set_yticks(y)
+    ax.set_yticklabels(labels, fontsize=6)
+    ax.set_xlabel("improvement over raw, % (headline metric); mean and 95 % CI over "
+                  "replicates; | oracle; red: in-sample")
+    ax.set_title("Every method across scenarios", fontsize=9)
+    fig.tight_layout()
+    save_figure(fig, path)
+    plt.close(fig)
+
+
+def _ours(folder: Path) -> bool:
+    """Whether ``folder``'s compare outputs, if any, are this command's (else refuse)."""
+    j, md = folder / "compare.json", folder / "compare.md"
+    if j.exists():
+        try:
+            if json.loads(j.read_text()).get("format") != FORMAT:
+                return False
+        except (OSError, ValueError, AttributeError):
+            return False
+    if md.exists():
+        try:
+            if md.read_text(errors="replace").splitlines()[:1] != [TITLE]:
+                return False
+        except OSError:
+            return False
+    if (folder / "compare.png").exists() and not j.exists():
+        return False
+    return True
+
+
+def write_compare(paths, out: Path) -> Path:
+    """Write ``out/compare.md``, ``compare.json`` and ``compare.png``; replaces only files this
+    command wrote. Returns the Markdown's path."""
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise CompareError(f"--out {out}: not a folder")
+    if out.is_dir() and not _ours(out):
+        raise CompareError(f"--out {out}: compare.md, compare.json or compare.png there were "
+                           "not written by fogbench compare; left untouched")
+    rows = collect(paths)
+    if not rows:
+        raise CompareError("compare: no method with replicates on its scenario's headline "
+                           "metric in " + ", ".join(map(str, paths)))
+    out.mkdir(parents=True, exist_ok=True)
+    _figure(rows, str(out / "compare.png"))
+    atomic_write_text(out / "compare.json", json.dumps(
+        {"format": FORMAT, "version": 1, "rows": rows}, indent=1, allow_nan=False))
+    md = out / "compare.md"
+    atomic_write_text(md, compare_markdown(rows))
+    return md
+
+
+def _cmd(args) -> int:
+    paths = args.dirs
+    _run_dirs(paths)                  # every argument checked before anything else
+    out = Path(args.out) if args.out else None
+    if out is None:
+        if len(paths) == 1 and Path(paths[0]).is_dir() and not \
+                (Path(paths[0]) / "metrics.json").exists():
+            out = Path(paths[0])
+        else:
+            raise CompareError("compare: give --out DIR (the folder for compare.md, .json, "
+                               ".png) unless the one argument is a suite folder")
+    md = write_compare(paths, out)
+    print(f"compare: wrote {md}, {out / 'compare.json'}, {out / 'compare.png'}")
+    return 0
+
+
+def add_command(sub) -> None:
+    c = sub.add_parser("compare", help="every method of every scenario on one table and one "
+                       "figure (from run directories or a suite folder)")
+    c.add_argument("dirs", nargs="+", help="run directories, or a suite folder (reports)")
+    c.add_argument("--out", help="folder for compare.md, compare.json, compare.png (default: "
+                   "the suite folder when it is the one argument)")
+    c.set_defaults(func=_cmd)

@@ -1,0 +1,74 @@
+"""fogbench compare: its intervals, ranks and flags against values worked out by hand from the
+replicates written into run directories; foreign outputs refused and left as they were."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from scipy import stats as sst
+
+from fogbench.compare import collect
+
+from helpers import run_cli
+
+
+def _run_dir(root, name, series, claims=None, in_sample=False):
+    d = root / name
+    d.mkdir(parents=True)
+    doc = {"scenario": name, "protocols": {"p": {"in_sample": in_sample}},
+           "montecarlo": {"series": {"p": series}, "claims": claims or []}}
+    (d / "metrics.json").write_text(json.dumps(doc))
+    return d
+
+
+def test_rows_against_hand_computed_intervals_and_ranks(tmp_path):
+    a = [10.0, 20.0, 30.0, 40.0]
+    b = [15.0, 10.0, 35.0, None]          # one failed replicate
+    _run_dir(tmp_path / "rep", "s1", {"improvement_rmse_pct": {
+        "raw": [0, 0, 0, 0], "oracle": [50.0, 50.0, 50.0, 50.0], "a": a, "b": b}})
+    _run_dir(tmp_path / "rep", "s2", {"bias_stability_100s_dph": {
+        "raw": [1.0, 1.0, 1.0], "a": [0.5, 0.2, 0.3], "b": [0.4, 0.3, 0.1]},
+        "improvement_rmse_pct": {"a": [1.0, 2.0, 3.0]}},
+        claims=[{"metric": "bias_stability_100s_dph"}], in_sample=True)
+    rows = {(r["scenario"], r["method"]): r for r in collect([tmp_path / "rep"])}
+    ra = rows[("s1", "a")]
+    half = sst.t.ppf(0.975, 3) * np.std(a, ddof=1) / math.sqrt(4)
+    assert ra["value"]["mean"] == pytest.approx(25.0)
+    assert ra["value"]["ci_low"] == pytest.approx(25.0 - half)
+    assert ra["value"]["ci_high"] == pytest.approx(25.0 + half)
+    assert ra["oracle"]["mean"] == pytest.approx(50.0) and ra["failed"] == 0
+    # ranks by replicate (higher is better): a 2,1,2,1 ; b 1,2,1,2 (failed last): both 50 %
+    assert (ra["rank"], ra["rank_probability"]) == (1, 0.5)
+    rb = rows[("s1", "b")]
+    assert rb["failed"] == 1 and rb["value"]["mean"] == pytest.approx(20.0)
+    # the headline of s2 is its claim's metric (lower is better there), flagged in-sample
+    r2a, r2b = rows[("s2", "a")], rows[("s2", "b")]
+    assert r2a["metric"] == "bias_stability_100s_dph" and r2a["in_sample"]
+    # a: 0.5 > 0.4 (2nd), 0.2 < 0.3 (1st), 0.3 > 0.1 (2nd): rank 2 in 2 of 3
+    assert (r2a["rank"], r2a["rank_probability"]) == (2, pytest.approx(2 / 3))
+    assert (r2b["rank"], r2b["rank_probability"]) == (1, pytest.approx(2 / 3))
+
+
+def test_compare_cli_writes_its_three_files_and_refuses_foreign_ones(tmp_path):
+    _run_dir(tmp_path / "rep", "s1", {"improvement_rmse_pct": {
+        "raw": [0, 0], "a": [10.0, 12.0], "b": [5.0, 6.0]}})
+    code, out, err = run_cli("compare", tmp_path / "rep")
+    assert code == 0, err
+    md = (tmp_path / "rep" / "compare.md").read_text()
+    assert "| s1 | p | improvement_rmse_pct | a | 11 [" in md
+    assert json.loads((tmp_path / "rep" / "compare.json").read_text())["format"] == \
+        "fogbench-compare"
+    code, _, err = run_cli("compare", tmp_path / "rep")          # its own: replaced
+    assert code == 0, err
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "compare.md").write_text("my notes\n")
+    code, _, err = run_cli("compare", tmp_path / "rep", "--out", mine)
+    assert code == 2 and "not written by fogbench compare" in err
+    assert (mine / "compare.md").read_text() == "my notes\n"
+    assert sorted(p.name for p in mine.iterdir()) == ["compare.md"]
+    code, _, err = run_cli("compare", tmp_path / "nothing_here")
+    assert code == 2 and "no such run directory" in err

@@ -1123,9 +1123,11 @@ def _cmd_calibrate(args) -> int:
     import fogcomp
 
     method = args.method
-    known = ["ferraris"] + fogcomp.available_methods()
-    if method not in known:
-        raise LogError(f"calibrate: unknown method {method!r}; available: {', '.join(known)}")
+    if method != "ferraris":
+        try:           # a built-in, an entry-point plug-in or module:Class
+            fogcomp.get_method(method)
+        except KeyError as exc:
+            raise LogError(f"calibrate: {exc.args[0]} (or ferraris)") from None
     _check_calibrate_flags(args)
     out = _Outputs(args.overwrite, "calibrate")
     model_path = Path(args.out)

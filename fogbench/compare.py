@@ -9,8 +9,9 @@ with the probability of that rank over replicates, its failures, and whether it 
 the data it was fitted on (a paper's in-sample protocol, flagged).
 
 The headline metric of a scenario is the metric of its first claim (what the scenario is about),
-else ``improvement_rmse_pct``. Improvements are in percent of the raw output's value (positive:
-better than raw). Intervals: 95 % Student t over replicates (``fogbench.stats.summarize``); a
+else ``improvement_rmse_pct``. An error metric (deg/s, deg/h: lower is better) is shown as its
+improvement over raw, 100 (1 - m / raw) %, taken replicate by replicate; every value is in percent
+of the raw output's (positive: better than raw). Intervals: 95 % Student t over replicates (``fogbench.stats.summarize``); a
 single replicate has none.
 """
 
@@ -76,8 +77,10 @@ def _one_replicate(doc: dict, d: Path) -> dict:
                     if isinstance(v, (int, float)) and not isinstance(v, bool):
                         out.setdefault(prot, {}).setdefault(metric, {}).setdefault(
                             label, []).append(float(v))
+        labels = {lab for run in runs.values() for lab in (run or {})}
         for metric, by_label in out.get(prot, {}).items():
-            for label, vals in by_label.items():
+            for label in labels:       # a method that failed has no numbers: a failure
+                vals = by_label.get(label, [])
                 by_label[label] = [float(np.mean(vals)) if len(vals) == len(runs) else None]
     return out
 
@@ -99,13 +102,22 @@ def collect(paths) -> list[dict]:
         if not isinstance(mc, dict) or "series" not in mc:
             mc = {"series": _one_replicate(doc, d)}
         metric = _headline(doc)
-        better = "higher" if metric.endswith("_pct") else "lower"
+        better = "higher"
         for prot, by_metric in mc["series"].items():
             series = by_metric.get(metric)
             if not series:
                 continue
             in_sample = bool(doc.get("protocols", {}).get(prot, {}).get("in_sample", False))
             vals = {lab: _values(v) for lab, v in series.items()}
+            if not metric.endswith("_pct"):
+                # an error metric (lower is better): its improvement over raw, replicate by
+                # replicate on the same data, 100 (1 - m / raw) %
+                if "raw" not in vals:
+                    continue
+                raw = vals["raw"]
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    vals = {lab: np.where(raw > 0, 100.0 * (1.0 - v / raw), np.nan)
+                            for lab, v in vals.items()}
             methods = [m for m in vals if m not in REFERENCES]
             if not methods:
                 continue
@@ -124,7 +136,9 @@ def collect(paths) -> list[dict]:
                 rows.append({
                     "scenario": name if d.name == name else f"{name} ({d.name})",
                     "run_dir": str(d),
-                    "protocol": prot, "in_sample": in_sample, "metric": metric,
+                    "protocol": prot, "in_sample": in_sample,
+                    "metric": metric if metric.endswith("_pct") else
+                    f"improvement of {metric} over raw, %",
                     "better": better, "method": m, "replicates": R,
                     "failed": int(np.sum(~np.isfinite(vals[m]))),
                     "value": S.summarize(vals[m]).as_dict(),
@@ -145,8 +159,9 @@ def _iv(s: dict | None) -> str:
 def compare_markdown(rows: list[dict]) -> str:
     L = [TITLE, "",
          "Per scenario and protocol, every method on the scenario's headline metric (its first "
-         "claim's, else improvement_rmse_pct: percent of the raw output's RMS error removed; "
-         "positive is better than raw): the mean over replicates with its 95 % paired "
+         "claim's, else improvement_rmse_pct: percent of the raw output's RMS error removed; an "
+         "error metric is shown as its improvement over raw, 100 (1 - m / raw) %, replicate by "
+         "replicate; positive is better than raw): the mean over replicates with its 95 % paired "
          "t-interval (the improvement is taken replicate by replicate on the same data), the "
          "oracle's (the true deterministic error removed) and the filter oracle's (the best "
          "estimate given the true noise model, where the true rate is constant) beside it, the "

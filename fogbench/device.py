@@ -665,18 +665,24 @@ def _read_thermal(path, args):
                       log.sources[ch]), log
 
 
+def _check_reference_flag(reference):
+    """--reference names a column with a rate unit (checked before any log is read)."""
+    if not reference:
+        raise LogError("--multipos: give --reference COLUMN, the log's reference rate about the "
+                       "input axis with its unit (e.g. ref_dps: the table's rate plus the Earth "
+                       "rate's projection)")
+    m = re.fullmatch(r"(.+)_(dps|rps|dph|deg_s|rad_s)", reference)
+    if not m:
+        raise LogError(f"--reference {reference!r}: name a column with a rate unit suffix "
+                       "(_dps, _rps, _dph)")
+    return m
+
+
 def _read_multipos(path, args):
     from .device_multipos import MultiposLog
     from .reallog import G0, GYRO_UNITS, _numeric
 
-    if not args.reference:
-        raise LogError("--multipos: give --reference COLUMN, the log's reference rate about the "
-                       "input axis with its unit (e.g. ref_dps: the table's rate plus the Earth "
-                       "rate's projection)")
-    m = re.fullmatch(r"(.+)_(dps|rps|dph|deg_s|rad_s)", args.reference)
-    if not m:
-        raise LogError(f"--reference {args.reference!r}: name a column with a rate unit suffix "
-                       "(_dps, _rps, _dph)")
+    m = _check_reference_flag(args.reference)
     chans = [f"gyro_{args.axis}" if args.axis else "gyro_*", "acc_x", "acc_y", "acc_z"]
     log = read_log(path, mapping=args.column, channels=chans, fs=args.fs, gaps="refuse",
                    time_tolerance=args.time_tolerance, min_samples=MIN_RECORD_SAMPLES)
@@ -750,6 +756,8 @@ def _cmd_fit(args) -> int:
                        f"{_fmt_number(args.min_tau_s)}")
     if args.reference and not args.multipos:
         raise LogError("--reference: only with --multipos")
+    if args.multipos:
+        _check_reference_flag(args.reference)
     if args.full_scale_dps is not None:
         if not args.multipos:
             raise LogError("--full-scale-dps: only with --multipos")

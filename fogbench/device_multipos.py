@@ -16,7 +16,10 @@ model, so that a non-linearity does not leak into ``k``).
 Which terms a log determines is decided before the fit, from the design alone (estimability,
 e.g. Searle, *Linear Models*, 1971, sec. 5.4): a coefficient can be estimated without bias iff
 its unit vector lies in the row space of the design matrix, i.e. has no component in its null
-space. At 1 g, fx^2 + fy^2 + fz^2 = 1 in every static position, so the constant and the three
+space (numerically: the right singular vectors of the unit-scaled design whose singular values
+are below 1e-3 of the largest, so that an accelerometer's noise and scale errors, which keep
+fx^2 + fy^2 + fz^2 from being exactly 1, do not make a term look determined; the fit is then
+made in the remaining directions only). At 1 g, fx^2 + fy^2 + fz^2 = 1 in every static position, so the constant and the three
 squares are never separable without a centrifuge (or positions at other than 1 g); six
 positions (each axis up and down) leave the cross terms at zero. A term that is not estimable is
 listed as such; the others are estimated by generalised least squares on block means (as the
@@ -35,7 +38,9 @@ import numpy as np
 __all__ = ["MultiposLog", "TERMS", "design", "estimable", "fit_multipos", "lab_program"]
 
 MAX_BLOCKS = 3000              # the fit works on at most 3000 block means (covariance m x m)
-NULL_TOL = 1e-6                # a unit vector with a null-space component beyond this: not estimable
+RANK_TOL = 1e-3                # singular values below this (relative): the design's null space
+NULL_TOL = 1e-2                # a unit vector with more of its length in the null space: not
+                               # estimable
 
 #: The columns of the model (module docstring): name and the device key (index) it gives.
 TERMS = (("constant", None),
@@ -69,18 +74,28 @@ def design(f: np.ndarray, ref: np.ndarray) -> np.ndarray:
                             fy * fz, fx * fz, ref, ref * np.abs(ref)])
 
 
+def _basis(X: np.ndarray):
+    """(column norms, the columns used, singular values, right singular vectors) of ``X``
+    with its columns scaled to unit length."""
+    norms = np.linalg.norm(X, axis=0)
+    used = norms > 0
+    Xs = X[:, used] / norms[used]
+    _, s, vt = np.linalg.svd(Xs, full_matrices=Xs.shape[0] < Xs.shape[1])
+    return norms, used, s, vt
+
+
 def estimable(X: np.ndarray, tol: float = NULL_TOL) -> np.ndarray:
     """Per column of ``X``: is its coefficient estimable (its unit vector in the row space)?
-    Columns scaled to unit length first (an estimable coefficient stays estimable); the rank
-    from the singular values above 1e-9 of the largest."""
-    norms = np.linalg.norm(X, axis=0)
-    ok = norms > 0
-    Xs = X[:, ok] / norms[ok]
-    _, s, vt = np.linalg.svd(Xs, full_matrices=True)
-    rank = int(np.sum(s > 1e-9 * s[0])) if s.size else 0
-    null = vt[rank:]                                   # rows: a basis of the null space
+    Columns scaled to unit length first (an estimable coefficient stays estimable); directions
+    with singular values below RANK_TOL of the largest count as the null space (an
+    accelerometer's noise and scale errors keep fx^2 + fy^2 + fz^2 from being exactly 1, but
+    not by more than about 1e-3); a coefficient whose unit vector has more than ``tol`` of its
+    length in that null space is not estimable."""
+    norms, used, s, vt = _basis(X)
+    rank = int(np.sum(s > RANK_TOL * s[0])) if s.size else 0
+    null = vt[rank:]
     res = np.zeros(X.shape[1], bool)
-    res[np.flatnonzero(ok)] = np.linalg.norm(null, axis=0) < tol if null.size else True
+    res[np.flatnonzero(used)] = np.linalg.norm(null, axis=0) < tol if null.size else True
     return res
 
 
@@ -96,7 +111,7 @@ def fit_multipos(log: MultiposLog, noise, ci: float, full_scale: float | None = 
     g^2, scale factor and non-linearity dimensionless), ``chi2_per_dof``, ``block_s``,
     ``blocks``."""
     from scipy.linalg import solve_triangular
-    from scipy.stats import norm
+    from scipy.stats import norm, t as student_t
 
     from .device_thermal import block_covariance
 
@@ -112,31 +127,31 @@ def fit_multipos(log: MultiposLog, noise, ci: float, full_scale: float | None = 
         raise ValueError(f"{log.name}: {m} blocks; the multi-position fit needs at least 30 "
                          "samples")
     ok = estimable(X)
-    norms = np.linalg.norm(X, axis=0)
-    used = norms > 0
-    Xs = X[:, used] / norms[used]                 # unit columns: a sound pseudo-inverse
-    s = np.linalg.svd(Xs, compute_uv=False)
-    rank = int(np.sum(s > 1e-9 * s[0]))
+    norms, used, s, vt = _basis(X)
+    rank = int(np.sum(s > RANK_TOL * s[0]))
     dof = m - rank
     if dof < 10:
         raise ValueError(f"{log.name}: {m} blocks for {rank} separable terms; record longer")
+    Vr = vt[:rank].T                              # the directions the log determines
     C = block_covariance(noise, log.fs, k, m)
     C[np.diag_indices_from(C)] *= 1.0 + 1e-10
     L = np.linalg.cholesky(C)
-    wX = solve_triangular(L, Xs, lower=True)
+    wX = solve_triangular(L, (X[:, used] / norms[used]) @ Vr, lower=True)
     wy = solve_triangular(L, y, lower=True)
-    # the whole model, rank-deficient where the log cannot separate terms: the minimum-norm
-    # solution and the pseudo-inverse covariance are exact for every estimable coefficient
-    # (the ones reported) whichever generalised inverse is taken
-    beta_s = np.linalg.pinv(wX, rcond=1e-9) @ wy
-    chi = float(np.sum((wy - wX @ beta_s) ** 2))
+    # generalised least squares in those directions (full rank), mapped back: one cutoff for
+    # the estimate, its covariance and what is reported (the estimable coefficients)
+    gamma, *_ = np.linalg.lstsq(wX, wy, rcond=None)
+    chi = float(np.sum((wy - wX @ gamma) ** 2))
     scale = max(chi / dof, 1.0)
-    cov_s = np.linalg.pinv(wX.T @ wX, rcond=1e-12, hermitian=True) * scale
+    cov_g = np.linalg.inv(wX.T @ wX) * scale
+    beta_s, cov_s = Vr @ gamma, Vr @ cov_g @ Vr.T
     beta = np.zeros(X.shape[1])
     sd = np.zeros(X.shape[1])
     beta[used] = beta_s / norms[used]
     sd[used] = np.sqrt(np.maximum(np.diag(cov_s), 0.0)) / norms[used]
-    z = float(norm.ppf(0.5 + ci / 2))
+    # the noise model's own scale: normal quantiles; scaled up by the residual: Student's t
+    z = float(norm.ppf(0.5 + ci / 2)) if scale == 1.0 else float(student_t.ppf(0.5 + ci / 2,
+                                                                               dof))
     out: dict = {"chi2_per_dof": chi / dof, "block_s": k / log.fs, "blocks": m}
     for j, (name, _) in enumerate(TERMS):
         out[name] = (beta[j], beta[j] - z * sd[j], beta[j] + z * sd[j]) if ok[j] else None

@@ -19,6 +19,7 @@ executor (a local process pool, or Dask).
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import math
@@ -56,6 +57,36 @@ def scenario_digest(text: str) -> str:
 
 # ---------------------------------------------------------------------------------------------
 # One replicate (runs on a worker)
+def method_environment() -> dict:
+    """The environment variables --with-method and --fit-timeout-s set in this process."""
+    from .scenario import FIT_TIMEOUT_ENV, WITH_METHODS_ENV
+
+    return {k: os.environ[k] for k in (FIT_TIMEOUT_ENV, WITH_METHODS_ENV) if os.environ.get(k)}
+
+
+@contextlib.contextmanager
+def method_environment_set(env: dict):
+    """Exactly ``env`` for those variables while a replicate runs (a forkserver or Dask worker
+    has its own environment, started before or elsewhere), then what was there before."""
+    from .scenario import FIT_TIMEOUT_ENV, WITH_METHODS_ENV
+
+    keys = (FIT_TIMEOUT_ENV, WITH_METHODS_ENV)
+    before = {k: os.environ.get(k) for k in keys}
+    for k in keys:
+        if env.get(k):
+            os.environ[k] = env[k]
+        else:
+            os.environ.pop(k, None)
+    try:
+        yield
+    finally:
+        for k, v in before.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+
+
 def replicate_task(task: tuple) -> dict:
     """Worker: ``(scenario path, digest, replicate r, method_seeds K, method labels or None,
     truths, overrides)`` -> the replicate's metrics (:func:`replicate_doc`). ``truths`` (run
@@ -63,7 +94,7 @@ def replicate_task(task: tuple) -> dict:
     every replicate; ``overrides`` the claim-map point's values (or None)."""
     from .runner import run_scenario
 
-    path, digest, r, k, methods, truths, overrides = task
+    path, digest, r, k, methods, truths, overrides, env = task
     try:
         now = scenario_digest(Path(path).read_bytes().decode("utf-8", "replace")
                               + _overrides_text(overrides))
@@ -74,8 +105,9 @@ def replicate_task(task: tuple) -> dict:
         raise MonteCarloError(f"{path}: the scenario file changed during the run; replicate "
                               f"{r} was not computed (its results would mix two versions)")
     t0 = time.perf_counter()
-    res = run_scenario(path, replicate=r, method_seeds=k, methods=methods, truths=dict(truths),
-                       overrides=overrides)
+    with method_environment_set(env):   # --with-method, --fit-timeout-s of the main process
+        res = run_scenario(path, replicate=r, method_seeds=k, methods=methods,
+                           truths=dict(truths), overrides=overrides)
     return replicate_doc(res, time.perf_counter() - t0)
 
 
@@ -121,13 +153,15 @@ class WorkDir:
         self.identity = {"kind": "replicates", "scenario": sc.name,
                          "scenario_file": str(sc.path), "scenario_sha256": scenario_digest(sc.text),
                          "fogbench": versions().get("fogbench"), "method_seeds": method_seeds,
-                         "methods": sorted(methods) if methods else None}
+                         "methods": sorted(methods) if methods else None,
+                         "method_environment": method_environment() or None}
         self._claim = Claim(self.path, self._busy)
 
     def _mismatch(self, found: dict, where: Path) -> str | None:
         for key, what in (("scenario_sha256", "another scenario file (or an edited one)"),
                           ("fogbench", "another fogbench version"),
-                          ("method_seeds", "another method_seeds"), ("methods", "other methods")):
+                          ("method_seeds", "another method_seeds"), ("methods", "other methods"),
+                          ("method_environment", "other --with-method / --fit-timeout-s")):
             if found.get(key) != self.identity[key]:
                 return (f"--resume: {where} holds replicates of {what} "
                         f"({key}: {found.get(key)!r}, now {self.identity[key]!r}); refused. Run "
@@ -565,6 +599,7 @@ class ScenarioMC:
         self.R = int(replicates or self.plan.replicates)
         self.K = int(method_seeds or self.plan.method_seeds)
         self.methods = methods
+        self.env = method_environment()     # sent with every task (workers need not share it)
         self.seed = scenario_seed(self.sc, self.plan)
         self.first_in_process = first_in_process
         self.work = WorkDir(out, self.sc, self.K, methods, tag=tag)
@@ -620,7 +655,8 @@ class ScenarioMC:
             if self.store_error is not None:   # a serial executor runs each task at submit
                 break
             fut = executor.submit(replicate_task, (self.path, self.digest, r, self.K,
-                                                   self.methods, self.truths, self.overrides))
+                                                   self.methods, self.truths, self.overrides,
+                                                   self.env))
             self.futures[fut] = r
             fut.add_done_callback(lambda f, cb=on_done: self._store(f, cb))
 

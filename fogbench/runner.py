@@ -371,6 +371,7 @@ def time_limit(seconds: float | None, what: str):
     signal.setitimer(signal.ITIMER_REAL, seconds)
     try:
         yield
+        signal.setitimer(signal.ITIMER_REAL, 0.0)   # done: a late alarm cannot fail it now
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0.0)
         signal.signal(signal.SIGALRM, old)
@@ -408,14 +409,18 @@ def _fit(ms, seed, fit_piece: Piece, fit_sel, score_sel, timeout_s: float | None
             model = None
         rec["warnings"] = sorted({f"{w.category.__name__}: {w.message}" for w in caught})
     if model is not None:
-        rec["coefficients"] = _coef_record(model)
-        rec["identifiability"] = _ident_record(model)
-        for attr in ("level_", "n_iter_", "n_epochs_", "initial_loss_"):
-            if hasattr(model, attr):
-                v = getattr(model, attr)
-                rec[attr.rstrip("_")] = v if isinstance(v, (int, str)) else float(v)
-        if hasattr(model, "loss_curve_"):
-            rec["loss_curve"] = [float(x) for x in np.asarray(model.loss_curve_)]
+        try:    # what a method learned, as far as it has the usual attributes (a plug-in may not)
+            rec["coefficients"] = _coef_record(model)
+            rec["identifiability"] = _ident_record(model)
+            for attr in ("level_", "n_iter_", "n_epochs_", "initial_loss_"):
+                if hasattr(model, attr):
+                    v = getattr(model, attr)
+                    rec[attr.rstrip("_")] = v if isinstance(v, (int, str)) else float(v)
+            if hasattr(model, "loss_curve_"):
+                rec["loss_curve"] = [float(x) for x in np.asarray(model.loss_curve_)]
+        except _METHOD_FAILURES as exc:
+            rec["warnings"].append(f"its learned attributes could not be recorded "
+                                   f"({type(exc).__name__}: {exc})")
     return rec, model
 
 

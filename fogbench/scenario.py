@@ -979,8 +979,11 @@ def load_plan(sc: Scenario) -> Plan:
         try:
             fit_timeout_s = float(os.environ[FIT_TIMEOUT_ENV])
         except ValueError:
-            raise ScenarioError(f"environment variable {FIT_TIMEOUT_ENV}: expected seconds, got "
-                                f"{os.environ[FIT_TIMEOUT_ENV]!r}") from None
+            fit_timeout_s = math.nan
+        if not 0.0 < fit_timeout_s <= 86_400.0:
+            raise ScenarioError(f"environment variable {FIT_TIMEOUT_ENV} (--fit-timeout-s): "
+                                "expected seconds in (0, 86400], got "
+                                f"{os.environ[FIT_TIMEOUT_ENV]!r}")
     opts.done()
 
     protocols = []

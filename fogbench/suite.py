@@ -304,13 +304,17 @@ def _summary_path(out: Path, partial: bool) -> Path:
     return readme
 
 
-def _write_compare(out: Path) -> Path | None:
-    """``fogbench compare`` over the suite folder; a failure is said, not fatal."""
-    from .compare import CompareError, write_compare
+def _write_compare(out: Path, names: list[str]) -> Path | None:
+    """``fogbench compare`` over this suite's run folders; a failure is said, not fatal (the
+    summary is written either way)."""
+    from .compare import write_compare
 
+    dirs = [Path(out) / n for n in names if (Path(out) / n / "metrics.json").is_file()]
+    if not dirs:
+        return None
     try:
-        return write_compare([out], out)
-    except CompareError as exc:
+        return write_compare(dirs, out)
+    except Exception as exc:  # noqa: BLE001 (the comparison must not cost the suite's summary)
         print(f"fogbench: warning: compare: {exc}", file=sys.stderr)
         return None
 
@@ -458,7 +462,7 @@ def _suite_body(plans, chosen, first_file, results, out, readme, check, jobs, re
         else:
             violations.append(f"{r['name']}: scenario failed: {r['error']}")
     summary = summary_markdown(results, plans, out, violations)
-    compared = _write_compare(out)
+    compared = _write_compare(out, [r["name"] for r in results if r["ok"]])
     if compared:
         summary += ("\n## Every method across scenarios\n\n"
                     f"[{compared.name}]({compared.name}): every method (plug-ins included) of "

@@ -453,7 +453,7 @@ def _import_class(name: str) -> type[Compensator]:
     try:
         obj = importlib.import_module(mod_name)
     except ModuleNotFoundError as exc:
-        if exc.name and mod_name.startswith(exc.name):
+        if exc.name and (mod_name == exc.name or mod_name.startswith(exc.name + ".")):
             raise KeyError(f"method {name!r}: no module {exc.name!r} is installed (pip install "
                            "the plug-in's package into this environment)") from None
         raise PluginError(f"method {name!r}: its module does not import: "

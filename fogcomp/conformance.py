@@ -28,6 +28,7 @@ temperature, its rate and the attitude, plus white noise, at 100 Hz.
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import inspect
 import math
@@ -132,7 +133,7 @@ def _fit(cls, params, data, ref, seed=0):
 
 
 def check_method(method, params: dict | None = None, *, samples: int = 2000,
-                 probe_samples: int = 100_000) -> MethodCheck:
+                 probe_samples: int = 100_000, timeout_s: float | None = 300.0) -> MethodCheck:
     """Run every rule of the contract (module docstring) on ``method``.
 
     Parameters
@@ -144,7 +145,10 @@ def check_method(method, params: dict | None = None, *, samples: int = 2000,
     samples : int
         Length of the records of the functional rules.
     probe_samples : int
-        Length of the probe record (``probe_1e5``; 10^5 by default).
+        Length of the probe record (``probe_1e5``; 10^5 by default; its result names it).
+    timeout_s : float or None
+        Longest a rule may take, s (a hanging method fails the rule it hangs in); None: no
+        limit.
 
     Returns
     -------
@@ -166,14 +170,47 @@ def check_method(method, params: dict | None = None, *, samples: int = 2000,
         for rule in RULES:
             t0 = time.perf_counter()
             try:
-                msg = _RULES[rule](cls, params, data, ref, probe_samples)
-            except Exception as exc:  # noqa: BLE001 (a rule's crash is its failure)
-                msg = f"raised {type(exc).__name__}: {exc}"
+                with _time_limit(timeout_s, rule):
+                    msg = _RULES[rule](cls, params, data, ref, probe_samples)
+            except (Exception, SystemExit, _RuleTimeout) as exc:  # noqa: BLE001
+                msg = f"raised {type(exc).__name__}: {exc}"     # a rule's crash is its failure
             seconds = time.perf_counter() - t0 if rule == "probe_1e5" else None
-            report.results.append(RuleResult(rule, msg is None, msg or "", seconds))
+            ok = msg is None
+            if rule == "probe_1e5" and ok:
+                msg = f"{probe_samples} samples fitted and compensated"
+            report.results.append(RuleResult(rule, ok, msg or "", seconds))
     finally:
         np.random.set_state(saved)
     return report
+
+
+class _RuleTimeout(BaseException):
+    """A rule ran past its time limit (a BaseException: a method's ``except Exception`` does
+    not swallow it)."""
+
+
+@contextlib.contextmanager
+def _time_limit(seconds, rule: str):
+    """SIGALRM after ``seconds`` (main thread only; elsewhere no limit)."""
+    import signal
+    import threading
+
+    if (seconds is None or not hasattr(signal, "setitimer")
+            or threading.current_thread() is not threading.main_thread()):
+        yield
+        return
+
+    def expire(signum, frame):
+        raise _RuleTimeout(f"{rule} did not finish within {seconds:g} s")
+
+    old = signal.signal(signal.SIGALRM, expire)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+        signal.setitimer(signal.ITIMER_REAL, 0.0)
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0.0)
+        signal.signal(signal.SIGALRM, old)
 
 
 # ---------------------------------------------------------------------------------------------

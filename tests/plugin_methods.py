@@ -81,3 +81,12 @@ class BadConstructor(MeanBias):
 
     def __init__(self, scale: float = 1.0):
         raise RuntimeError("planted failure in __init__")
+
+
+class WrongOutput(MeanBias):
+    """compensate() itself overridden (past Compensator.estimate_error's shape check)."""
+
+    name = "test_wrong_output"
+
+    def compensate(self, data):
+        return np.zeros((len(data), 1))

@@ -46,7 +46,9 @@ def test_rows_against_hand_computed_intervals_and_ranks(tmp_path):
     assert rb["failed"] == 1 and rb["value"]["mean"] == pytest.approx(20.0)
     # the headline of s2 is its claim's metric (lower is better there), flagged in-sample
     r2a, r2b = rows[("s2", "a")], rows[("s2", "b")]
-    assert r2a["metric"] == "bias_stability_100s_dph" and r2a["in_sample"]
+    assert "bias_stability_100s_dph" in r2a["metric"] and r2a["in_sample"]
+    # shown as its improvement over raw (1.0): 50, 80, 70 %
+    assert r2a["value"]["mean"] == pytest.approx((50 + 80 + 70) / 3)
     # a: 0.5 > 0.4 (2nd), 0.2 < 0.3 (1st), 0.3 > 0.1 (2nd): rank 2 in 2 of 3
     assert (r2a["rank"], r2a["rank_probability"]) == (2, pytest.approx(2 / 3))
     assert (r2b["rank"], r2b["rank_probability"]) == (1, pytest.approx(2 / 3))

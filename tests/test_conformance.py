@@ -50,3 +50,14 @@ def test_check_method_from_the_command_line():
     assert code == 1 and "FAIL save_load_exact" in out
     code, _, err = run_cli("check-method", "no_such_mod:X")
     assert code == 2 and "no module 'no_such_mod'" in err
+
+
+def test_a_method_that_exits_or_hangs_fails_the_rule_and_the_check_goes_on():
+    from plugin_methods import Exits, Hangs
+
+    rep = fogcomp.check_method(Exits, probe_samples=1000)
+    assert not rep.ok and "SystemExit" in next(r.message for r in rep.failures
+                                               if r.rule == "fit_returns_self")
+    rep = fogcomp.check_method(Hangs, probe_samples=1000, timeout_s=0.5)
+    msg = next(r.message for r in rep.failures if r.rule == "fit_returns_self")
+    assert "did not finish within 0.5 s" in msg

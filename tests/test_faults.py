@@ -568,7 +568,7 @@ def killed(tiny, tmp_path):
     mc.run_first()
     digest = scenario_digest(tiny.read_bytes().decode())
     for r in (1, 2):
-        mc.work.write(replicate_task((str(tiny), digest, r, 1, None, {}, None)))
+        mc.work.write(replicate_task((str(tiny), digest, r, 1, None, {}, None, {})))
     mc.work.release()
     return tmp_path / ".run.replicates"
 

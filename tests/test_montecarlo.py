@@ -113,7 +113,7 @@ def test_aggregate_is_identical_serial_two_processes_and_dask(scn, tmp_path):
 def test_a_replicate_depends_only_on_its_index(scn, tmp_path):
     """Replicate 3 computed alone, first, equals replicate 3 of a whole run; replicates differ."""
     mc, _ = run_mc(scn, tmp_path / "all", contextlib.nullcontext(SerialExecutor()))
-    alone = replicate_task((str(scn), _digest(scn), 3, 1, None, {}, None))  # no cached table motion either
+    alone = replicate_task((str(scn), _digest(scn), 3, 1, None, {}, None, {}))  # no cached table motion either
     whole = mc.done[3]
 
     def metric(doc, r):
@@ -131,7 +131,7 @@ def test_resume_skips_completed_replicates_and_gives_the_same_aggregate(scn, tmp
     out = tmp_path / "killed"
     first = ScenarioMC(scn, out)
     first.run_first()
-    first.work.write(replicate_task((str(scn), _digest(scn), 2, 1, None, {}, None)))
+    first.work.write(replicate_task((str(scn), _digest(scn), 2, 1, None, {}, None, {})))
     # while it lives, its folder is its own: a second run into the same place is refused
     with pytest.raises(MonteCarloError, match="being filled by another fogbench process"):
         ScenarioMC(scn, out, resume=True)
@@ -246,7 +246,7 @@ def test_a_scenario_edited_during_the_run_is_not_mixed_in(scn):
     digest = _digest(scn)
     scn.write_text(scn.read_text().replace("seed = 12", "seed = 99"))
     with pytest.raises(MonteCarloError, match="changed during the run"):
-        replicate_task((str(scn), digest, 1, 1, None, {}, None))
+        replicate_task((str(scn), digest, 1, 1, None, {}, None, {}))
 
 
 # ---------------------------------------------------------------------------------------------

@@ -20,7 +20,8 @@ from helpers import SMALL_SCENARIO, run_cli
 FAILING = {
     "Raises": "planted failure in fit",
     "Hangs": "did not return within 1 s",
-    "WrongShape": "has shape",
+    "WrongShape": "estimated error has shape",
+    "WrongOutput": "compensated output has shape",
     "NonFinite": "non-finite",
     "Exits": "SystemExit",
     "BadConstructor": "planted failure in __init__",

@@ -383,25 +383,40 @@ def fog_json_schema() -> dict:
     kind, range, choices), so the schema cannot drift from what a scenario accepts. Checks the
     validator makes beyond one key (a band's order, the flicker band below Nyquist, a zero
     diagonal) are not in it: the loader still has the last word."""
-    calls: list = []
-    _Table.recorder = calls
-    try:
-        _fog(_Table({}, "[fog]", "schema"), 10_000.0)
-    finally:
-        _Table.recorder = None
+    def reads(fs):
+        calls: list = []
+        _Table.recorder = calls
+        try:
+            _fog(_Table({}, "[fog]", "schema"), fs)
+        finally:
+            _Table.recorder = None
+        return calls
+
+    calls = reads(10_000.0)
+    # a bound that moves with the sample rate (e.g. a sensor rate at most the scenario's): its
+    # limit is the scenario's, not the schema's
+    at_fs = {c[0] for c, d in zip(calls, reads(5_000.0)) if c != d}
     props: dict = {"source": {"type": "string", "description": "where the numbers come from"}}
     types = {"float": "number", "int": "integer", "str": "string", "bool": "boolean"}
     for key, kind, lo, hi, lo_open, choices in calls:
         if key in ("preset", "device", "axes") or key in props:
             continue
         if key in _ANY_KEY_SCHEMAS:
-            props[key] = dict(_ANY_KEY_SCHEMAS[key])
+            one = dict(_ANY_KEY_SCHEMAS[key])
+            if key in ("g_sens_dph_per_g", "g2_sens_dph_per_g2"):   # or one list per axis
+                desc = one.pop("description")
+                one = {"description": desc + "; or one such list per axis",
+                       "oneOf": [one, {"type": "array", "minItems": 1, "maxItems": 3,
+                                       "items": dict(one)}]}
+            props[key] = one
             continue
         item: dict = {"type": types.get(kind.rstrip("s"), "number")}
         if lo is not None:
             item["exclusiveMinimum" if lo_open else "minimum"] = lo
-        if hi is not None:
+        if hi is not None and key not in at_fs:
             item["maximum"] = hi
+        if key in at_fs:
+            item["description"] = "at most the scenario's sample rate (sample_rate_hz)"
         if choices is not None:
             item["enum"] = sorted(choices)
         props[key] = item if kind in types else {"type": "array", "items": item}

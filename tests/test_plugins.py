@@ -133,3 +133,22 @@ def test_a_module_class_model_saves_under_that_name_and_loads_back(tmp_path):
     assert np.array_equal(fogcomp.load_model(tmp_path / "m").compensate(data),
                           model.compensate(data))
     assert "plugin_methods" in sys.modules
+
+
+def test_with_method_reaches_worker_processes_and_later_runs_do_not_inherit_it(tmp_path):
+    """--with-method travels with each replicate to the workers (a forkserver started before
+    the flag was given has another environment): every replicate scores the added method; a
+    later run in the same process without the flag has no trace of it."""
+    s = _scenario(tmp_path, [])
+    code, _, err = run_cli("run", s, "--out", tmp_path / "a", "--no-recording", "--quiet",
+                           "--replicates", "3", "--jobs", "2",
+                           "--with-method", "plugin_methods:MeanBias")
+    assert code == 0, err
+    mc = json.loads((tmp_path / "a" / "metrics.json").read_text())["montecarlo"]
+    series = mc["series"]["p"]["rmse_dph"]["MeanBias"]
+    assert len(series) == 3 and all(v is not None for v in series), series
+    code, _, err = run_cli("run", s, "--out", tmp_path / "b", "--no-recording", "--quiet",
+                           "--replicates", "3", "--jobs", "2")
+    assert code == 0, err
+    mc = json.loads((tmp_path / "b" / "metrics.json").read_text())["montecarlo"]
+    assert "MeanBias" not in json.dumps(mc)

@@ -917,6 +917,13 @@ def _curve_record(path, header: dict, fs, samples) -> tuple[float, int]:
             raise LogError(f"{path}: line 1: {key}={v!r} is not a number") from None
         return x
 
+    given = {"--fs": (fs, number("sample_rate_hz", float), "sample_rate_hz"),
+             "--samples": (samples, number("n_samples", int), "n_samples")}
+    for flag, (flag_v, file_v, key) in given.items():
+        if flag_v is not None and file_v is not None and not math.isclose(
+                float(flag_v), float(file_v), rel_tol=1e-9):
+            _warning(f"{path}: {flag} {_fmt_number(flag_v)} overrides the curve's own "
+                     f"{key}={_fmt_number(file_v)} (line 1)")
     fs = fs if fs is not None else number("sample_rate_hz", float)
     samples = samples if samples is not None else number("n_samples", int)
     if fs is None or samples is None:

@@ -443,6 +443,9 @@ def load_device_file(path, fs: float | None = None) -> dict:
         if isinstance(v, dict):
             raise ScenarioError(f"{file}: [{k}]: a device file has no tables, only the keys of "
                                 "a [fog] table")
+    if not any(k != "source" for k in doc):
+        raise ScenarioError(f"{file}: holds no [fog] keys (an empty device would be a perfect "
+                            "gyro); write the device's keys, e.g. with fogbench device fit")
     tbl = _Table(dict(doc), "device file", file)
     tbl.get("source", "str", None)
     _fog(tbl, 10_000.0 if fs is None else fs)

@@ -667,3 +667,18 @@ def test_the_json_schema_is_the_validators_own(tmp_path):
             load_device_file(dev)
         checked += 1
     assert checked >= 25
+
+
+def test_an_empty_device_file_is_refused(tmp_path):
+    dev = tmp_path / "empty.toml"
+    dev.write_text('# nothing yet\nsource = "me"\n')
+    with pytest.raises(ScenarioError, match="holds no \\[fog\\] keys"):
+        load_device_file(dev)
+
+
+def test_fs_given_over_a_curve_header_is_warned_of(tmp_path):
+    curve = realdata_dir() / "fog_allan_curves" / "imar_gyro_oadev.csv"
+    need_realdata(curve)
+    code, _, err = run_cli("device", "fit", "--curve", curve, "--curve-ci", "0.95",
+                           "--fs", "1234", "--out", tmp_path / "d.toml")
+    assert "--fs 1234 overrides the curve's own sample_rate_hz=" in err, err

@@ -528,6 +528,12 @@ def main(argv=None) -> int:
         code = None
     except Terminated:
         code = None
+    except Exception:
+        # a signal that surfaced as another exception (mujoco's import turns an interrupt
+        # during its initialisation into ImportError): the signal's ending, not a traceback
+        if not _signals.received():
+            raise
+        code = None
     # The work is over: a signal from now on stays pending (and is answered here, not by a
     # silent death while the interpreter shuts down); one that arrived on the way, even one
     # whose exception was swallowed in a callback, still ends the command.

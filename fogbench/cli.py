@@ -496,18 +496,11 @@ def main(argv=None) -> int:
     try:
         parser = build_parser()
         args = parser.parse_args(argv)
-        env = _method_environment(args)
-        before = {k: os.environ.get(k) for k in env}
-        # read by load_scenario/load_plan here and in the worker processes this run starts
-        os.environ.update(env)
-        try:
+        from .scenario import method_environment, method_environment_set
+
+        # read by load_scenario/load_plan here (and sent with each replicate to its worker)
+        with method_environment_set({**method_environment(), **_method_environment(args)}):
             code = args.func(args)
-        finally:
-            for k, v in before.items():
-                if v is None:
-                    os.environ.pop(k, None)
-                else:
-                    os.environ[k] = v
     except ValueError as exc:  # ScenarioError, LogError, EngineError, ...: bad input
         _error_line(exc, str(exc))
         code = 2

@@ -41,7 +41,7 @@ import numpy as np
 
 from fogcomp.units import ARCSEC, DEG_RT_H, DPH, DPH_PER_H, DPH_RT_H, DPS
 
-from .reallog import (MIN_RECORD_SAMPLES, LogError, _common, _curve_record,
+from .reallog import (MIN_RECORD_SAMPLES, LogError, _common, _curve_record, reference_unit,
                       _fmt_number, _Outputs, _warnings_as_lines, read_curve, read_log)
 
 __all__ = ["MARKER", "preset_text", "DeviceFit", "fit_device", "twin_curves", "check_device",
@@ -671,18 +671,14 @@ def _check_reference_flag(reference):
         raise LogError("--multipos: give --reference COLUMN, the log's reference rate about the "
                        "input axis with its unit (e.g. ref_dps: the table's rate plus the Earth "
                        "rate's projection)")
-    m = re.fullmatch(r"(.+)_(dps|rps|dph|deg_s|rad_s)", reference)
-    if not m:
-        raise LogError(f"--reference {reference!r}: name a column with a rate unit suffix "
-                       "(_dps, _rps, _dph)")
-    return m
+    reference_unit(reference)
 
 
 def _read_multipos(path, args):
     from .device_multipos import MultiposLog
-    from .reallog import G0, GYRO_UNITS, _numeric
+    from .reallog import G0, reference_rate
 
-    m = _check_reference_flag(args.reference)
+    _check_reference_flag(args.reference)
     chans = [f"gyro_{args.axis}" if args.axis else "gyro_*", "acc_x", "acc_y", "acc_z"]
     log = read_log(path, mapping=args.column, channels=chans, fs=args.fs, gaps="refuse",
                    time_tolerance=args.time_tolerance, min_samples=MIN_RECORD_SAMPLES)
@@ -691,9 +687,7 @@ def _read_multipos(path, args):
         if log.units[c] == "au":
             raise LogError(f"{path}: column {log.sources[c]!r} is in raw counts (au); the "
                            "multi-position fit needs physical units")
-    if args.reference not in log.frame.columns:
-        raise LogError(f"{path}: no column {args.reference!r} (--reference)")
-    ref = _numeric(path, log.frame, args.reference, 2) * GYRO_UNITS[m.group(2)]
+    ref = reference_rate(path, log, args.reference)
     f = np.column_stack([log.channels[f"acc_{a}"] for a in "xyz"]) / G0
     return MultiposLog(str(path), log.channels[ch], ref, f, log.fs, log.sources[ch]), log
 

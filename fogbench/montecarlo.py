@@ -19,7 +19,6 @@ executor (a local process pool, or Dask).
 
 from __future__ import annotations
 
-import contextlib
 import hashlib
 import json
 import math
@@ -34,6 +33,7 @@ import numpy as np
 from . import stats as S
 from .io import atomic_write_text, json_ready, versions
 from .outdir import MARKER, Claim, OutDirError, _marker
+from .scenario import method_environment, method_environment_set
 
 __all__ = ["MonteCarloError", "replicate_task", "replicate_doc", "aggregate", "WorkDir",
            "scenario_digest", "TIMING_METRICS"]
@@ -57,36 +57,6 @@ def scenario_digest(text: str) -> str:
 
 # ---------------------------------------------------------------------------------------------
 # One replicate (runs on a worker)
-def method_environment() -> dict:
-    """The environment variables --with-method and --fit-timeout-s set in this process."""
-    from .scenario import FIT_TIMEOUT_ENV, WITH_METHODS_ENV
-
-    return {k: os.environ[k] for k in (FIT_TIMEOUT_ENV, WITH_METHODS_ENV) if os.environ.get(k)}
-
-
-@contextlib.contextmanager
-def method_environment_set(env: dict):
-    """Exactly ``env`` for those variables while a replicate runs (a forkserver or Dask worker
-    has its own environment, started before or elsewhere), then what was there before."""
-    from .scenario import FIT_TIMEOUT_ENV, WITH_METHODS_ENV
-
-    keys = (FIT_TIMEOUT_ENV, WITH_METHODS_ENV)
-    before = {k: os.environ.get(k) for k in keys}
-    for k in keys:
-        if env.get(k):
-            os.environ[k] = env[k]
-        else:
-            os.environ.pop(k, None)
-    try:
-        yield
-    finally:
-        for k, v in before.items():
-            if v is None:
-                os.environ.pop(k, None)
-            else:
-                os.environ[k] = v
-
-
 def replicate_task(task: tuple) -> dict:
     """Worker: ``(scenario path, digest, replicate r, method_seeds K, method labels or None,
     truths, overrides)`` -> the replicate's metrics (:func:`replicate_doc`). ``truths`` (run

@@ -1126,6 +1126,23 @@ def _one_attitude(log: Log, max_deg: float = 5.0) -> str | None:
             f"{g[2]:.3f}) g throughout")
 
 
+def reference_unit(column: str) -> float:
+    """rad/s per unit of a reference-rate column (``--reference``), named with its unit."""
+    m = re.fullmatch(r"(.+)_(dps|rps|dph|deg_s|rad_s)", column)
+    if not m:
+        raise LogError(f"--reference {column!r}: name a column with a rate unit suffix (_dps, "
+                       "_rps, _dph)")
+    return GYRO_UNITS[m.group(2)]
+
+
+def reference_rate(path, log: Log, column: str) -> np.ndarray:
+    """The reference rate of a log's column ``column`` (``--reference``), rad/s."""
+    factor = reference_unit(column)
+    if column not in log.frame.columns:
+        raise LogError(f"{path}: no column {column!r} (--reference)")
+    return _numeric(path, log.frame, column, 2) * factor
+
+
 def _cmd_calibrate(args) -> int:
     import fogcomp
 
@@ -1183,13 +1200,7 @@ def _cmd_calibrate(args) -> int:
     attitude = _one_attitude(log) if "g" in cls.requires else None
     ref = None
     if args.reference:
-        m = re.fullmatch(r"(.+)_(dps|rps|dph|deg_s|rad_s)", args.reference)
-        if not m:
-            raise LogError(f"--reference {args.reference!r}: name a column with a rate unit "
-                           "suffix (_dps, _rps, _dph)")
-        if args.reference not in log.frame.columns:
-            raise LogError(f"{args.log}: no column {args.reference!r} (--reference)")
-        ref = _numeric(args.log, log.frame, args.reference, 2) * GYRO_UNITS[m.group(2)]
+        ref = reference_rate(args.log, log, args.reference)
     models = {}
     for ch in axes:
         if log.units[ch] == "au":

@@ -9,11 +9,8 @@ compensator of the error model can beat without also filtering the signal). A me
 
 from __future__ import annotations
 
-import contextlib
 import json
 import math
-import signal
-import threading
 import time
 import traceback
 import warnings
@@ -24,6 +21,7 @@ import numpy as np
 
 import fogcomp
 from fogcomp import GyroData, metrics as M
+from fogcomp._limits import MethodTimeout, time_limit
 from fogcomp.units import DPH, DPS
 
 from sim.rig import RunData, simulate_run
@@ -348,35 +346,6 @@ def oracle_filter(piece: Piece, params, fs_run: float) -> np.ndarray | None:
     return np.full(n, float(w @ piece.raw / w.sum()))
 
 
-class MethodTimeout(BaseException):
-    """A method did not return within its time limit. A BaseException, so that a method's own
-    ``except Exception`` cannot swallow it."""
-
-
-@contextlib.contextmanager
-def time_limit(seconds: float | None, what: str):
-    """Stop the code inside after ``seconds`` (a SIGALRM timer; MethodTimeout raised where the
-    code is). Only in a process's main thread (a worker process, or the serial run); elsewhere
-    (a Dask worker's thread) no limit is set. Code stuck in C that never returns to the
-    interpreter is not interrupted until it does."""
-    if (seconds is None or not hasattr(signal, "setitimer")
-            or threading.current_thread() is not threading.main_thread()):
-        yield
-        return
-
-    def expire(signum, frame):
-        raise MethodTimeout(f"{what} did not return within {seconds:g} s (fit_timeout_s)")
-
-    old = signal.signal(signal.SIGALRM, expire)
-    signal.setitimer(signal.ITIMER_REAL, seconds)
-    try:
-        yield
-        signal.setitimer(signal.ITIMER_REAL, 0.0)   # done: a late alarm cannot fail it now
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0.0)
-        signal.signal(signal.SIGALRM, old)
-
-
 #: What a method may raise and be reported as failed for (not KeyboardInterrupt: the user's)
 _METHOD_FAILURES = (Exception, MethodTimeout, SystemExit)
 
@@ -394,7 +363,7 @@ def _fit(ms, seed, fit_piece: Piece, fit_sel, score_sel, timeout_s: float | None
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            with time_limit(timeout_s, f"{ms.label}: fit"):
+            with time_limit(timeout_s, f"{ms.label}: fit", note=" (fit_timeout_s)"):
                 model = fogcomp.make_method(ms.name, **ms.params)
                 if seed is not None:
                     model.random_state = seed
@@ -430,7 +399,7 @@ def _score_model(model, rec: dict, it: "Scored", rd: RunData, axis_j: int,
     if model is None:
         return {"status": "failed", "error": rec["error"]}, None
     try:
-        with time_limit(timeout_s, "compensate"):
+        with time_limit(timeout_s, "compensate", note=" (fit_timeout_s)"):
             t0 = time.perf_counter()
             out = np.asarray(model.compensate(it.piece.gyro()), dtype=float)
             dt = time.perf_counter() - t0

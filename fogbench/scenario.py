@@ -8,6 +8,8 @@ The format is documented in the README ("Scenario files").
 
 from __future__ import annotations
 
+import contextlib
+
 import hashlib
 import json
 import math
@@ -848,10 +850,35 @@ FIT_TIMEOUT_ENV = "FOGBENCH_FIT_TIMEOUT_S"
 WITH_METHODS_ENV = "FOGBENCH_WITH_METHODS"
 
 
+def method_environment() -> dict:
+    """The environment variables --with-method and --fit-timeout-s set in this process."""
+    return {k: os.environ[k] for k in (FIT_TIMEOUT_ENV, WITH_METHODS_ENV) if os.environ.get(k)}
+
+
+@contextlib.contextmanager
+def method_environment_set(env: dict):
+    """Exactly ``env`` for those variables while the code inside runs (a replicate on a
+    forkserver or Dask worker, which has its own environment; a command's flags), then what was
+    there before."""
+    keys = (FIT_TIMEOUT_ENV, WITH_METHODS_ENV)
+    before = {k: os.environ.get(k) for k in keys}
+    for k in keys:
+        if env.get(k):
+            os.environ[k] = env[k]
+        else:
+            os.environ.pop(k, None)
+    try:
+        yield
+    finally:
+        for k, v in before.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+
+
 def with_methods() -> list[str]:
     """The method names ``--with-method`` adds to every scenario (``WITH_METHODS_ENV``)."""
-    import os
-
     return [n for n in os.environ.get(WITH_METHODS_ENV, "").split(",") if n]
 
 
@@ -951,12 +978,6 @@ def _selection(v, where: str, file: str, run_names: set[str], runs: dict[str, Ru
     return sel
 
 
-def _builtin_methods() -> set:
-    from fogcomp import available_methods, get_method
-
-    return {n for n in available_methods() if get_method(n).__module__.startswith("fogcomp.")}
-
-
 _WARNED: set = set()
 
 
@@ -991,8 +1012,6 @@ def load_plan(sc: Scenario) -> Plan:
     notes = tuple(opts.get("notes", "strs", []))
     fit_timeout_s = opts.get("fit_timeout_s", "float", DEFAULT_FIT_TIMEOUT_S, lo=0.0,
                              hi=86_400.0, lo_open=True)
-    import os
-
     if os.environ.get(FIT_TIMEOUT_ENV):
         try:
             fit_timeout_s = float(os.environ[FIT_TIMEOUT_ENV])
@@ -1055,7 +1074,7 @@ def load_plan(sc: Scenario) -> Plan:
         params = dict(t.get("params", "table", {}))
         label = t.get("label", "name", mname.rpartition(":")[2] if ":" in mname else mname)
         try:
-            get_method(mname)
+            cls = get_method(mname)
         except PluginError as exc:      # installed but unusable: reported as failed, run goes on
             msg = name_problem(label)
             if msg:
@@ -1067,7 +1086,7 @@ def load_plan(sc: Scenario) -> Plan:
             continue
         except KeyError as exc:
             raise t.err("name", exc.args[0]) from None
-        builtin = mname in _builtin_methods()
+        builtin = cls.__module__.startswith("fogcomp.")
         sweep = t.get("sweep", "table", None)
         members = [({}, True)]
         if sweep is not None:

@@ -28,7 +28,6 @@ temperature, its rate and the attitude, plus white noise, at 100 Hz.
 
 from __future__ import annotations
 
-import contextlib
 import copy
 import inspect
 import math
@@ -40,6 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ._limits import MethodTimeout, time_limit
 from .base import GyroData, NotFittedError, class_problem, get_method, load_model
 
 __all__ = ["RULES", "RuleResult", "MethodCheck", "check_method"]
@@ -170,9 +170,9 @@ def check_method(method, params: dict | None = None, *, samples: int = 2000,
         for rule in RULES:
             t0 = time.perf_counter()
             try:
-                with _time_limit(timeout_s, rule):
+                with time_limit(timeout_s, rule, verb="finish"):
                     msg = _RULES[rule](cls, params, data, ref, probe_samples)
-            except (Exception, SystemExit, _RuleTimeout) as exc:  # noqa: BLE001
+            except (Exception, SystemExit, MethodTimeout) as exc:  # noqa: BLE001
                 msg = f"raised {type(exc).__name__}: {exc}"     # a rule's crash is its failure
             seconds = time.perf_counter() - t0 if rule == "probe_1e5" else None
             ok = msg is None
@@ -182,35 +182,6 @@ def check_method(method, params: dict | None = None, *, samples: int = 2000,
     finally:
         np.random.set_state(saved)
     return report
-
-
-class _RuleTimeout(BaseException):
-    """A rule ran past its time limit (a BaseException: a method's ``except Exception`` does
-    not swallow it)."""
-
-
-@contextlib.contextmanager
-def _time_limit(seconds, rule: str):
-    """SIGALRM after ``seconds`` (main thread only; elsewhere no limit)."""
-    import signal
-    import threading
-
-    if (seconds is None or not hasattr(signal, "setitimer")
-            or threading.current_thread() is not threading.main_thread()):
-        yield
-        return
-
-    def expire(signum, frame):
-        raise _RuleTimeout(f"{rule} did not finish within {seconds:g} s")
-
-    old = signal.signal(signal.SIGALRM, expire)
-    signal.setitimer(signal.ITIMER_REAL, seconds)
-    try:
-        yield
-        signal.setitimer(signal.ITIMER_REAL, 0.0)
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0.0)
-        signal.signal(signal.SIGALRM, old)
 
 
 # ---------------------------------------------------------------------------------------------

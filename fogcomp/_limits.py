@@ -1,0 +1,39 @@
+"""A time limit on a method's code (its fit, its compensation, a conformance rule)."""
+
+from __future__ import annotations
+
+import contextlib
+import signal
+import threading
+
+__all__ = ["MethodTimeout", "time_limit"]
+
+
+class MethodTimeout(BaseException):
+    """Code did not finish within its time limit. A BaseException, so that a method's own
+    ``except Exception`` cannot swallow it."""
+
+
+@contextlib.contextmanager
+def time_limit(seconds: float | None, what: str, verb: str = "return", note: str = ""):
+    """Stop the code inside after ``seconds``: a SIGALRM timer raises
+    ``MethodTimeout("<what> did not <verb> within <seconds> s<note>")`` where the code is. Only
+    in a process's main thread (a worker process, or a serial run); elsewhere (a Dask worker's
+    thread) no limit is set. Code stuck in C that never returns to the interpreter is stopped
+    when it does."""
+    if (seconds is None or not hasattr(signal, "setitimer")
+            or threading.current_thread() is not threading.main_thread()):
+        yield
+        return
+
+    def expire(signum, frame):
+        raise MethodTimeout(f"{what} did not {verb} within {seconds:g} s{note}")
+
+    old = signal.signal(signal.SIGALRM, expire)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+        signal.setitimer(signal.ITIMER_REAL, 0.0)   # done: a late alarm cannot fail it now
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0.0)
+        signal.signal(signal.SIGALRM, old)

@@ -27,6 +27,7 @@ over seeds, under both training functions.
 from __future__ import annotations
 
 import argparse
+import math
 import statistics
 import sys
 import time
@@ -199,8 +200,43 @@ def compare_starts(seeds: int = 20, n: int = 2500) -> dict:
     return out
 
 
+def bench_kalman_engines(repeats: int = 3, n_filterpy: int = 200_000,
+                         n_fast: int = 10_000_000) -> dict:
+    """The local-level filter on filterpy's full per-sample loop against the fast path
+    (filterpy over the transient, then the steady-state recursion; :mod:`fogcomp.methods.kalman`),
+    samples/s, medians of ``repeats``, and their ratio (issue 23's aim: >= 10 M samples/s and
+    >= 200 x filterpy). filterpy's rate does not depend on the length, so it runs on fewer
+    samples. Also the RTS smoother on both."""
+    from fogcomp.methods.kalman import local_level_filter
+
+    rng = np.random.default_rng(0)
+    q, r = 1e-6, 1.0
+    out = {}
+    for smoother in (False, True):
+        rates = {}
+        for engine, n in (("filterpy", n_filterpy), ("fast", n_fast)):
+            z = np.cumsum(rng.normal(0.0, math.sqrt(q), n)) + rng.normal(0.0, 1.0, n)
+            times = []
+            for _ in range(repeats):
+                t0 = time.perf_counter()
+                local_level_filter(z, q, r, z[0], r, smoother=smoother, engine=engine)
+                times.append(time.perf_counter() - t0)
+            rates[engine] = n / statistics.median(times)
+        label = "RTS smoother" if smoother else "filter"
+        print(f"  kalman {label:<13} filterpy {rates['filterpy'] / 1e6:8.3f} M samples/s "
+              f"({n_filterpy:,}), fast path {rates['fast'] / 1e6:8.2f} M samples/s "
+              f"({n_fast:,}): ratio {rates['fast'] / rates['filterpy']:,.0f} x", flush=True)
+        out[label] = rates
+    print("  aims: fast path >= 10 M samples/s and >= 200 x filterpy", flush=True)
+    return out
+
+
 def main(repeats: int = 3, methods: list[str] | None = None) -> int:
     """Print the table; returns 0 (exit status)."""
+    if not methods or "kalman" in methods:
+        print(f"Kalman engines (local-level filter, medians of {repeats}):", flush=True)
+        bench_kalman_engines(repeats)
+        print()
     names = methods or fogcomp.available_methods()
     print(f"fogcomp methods, default hyperparameters, medians of {repeats} "
           f"(fit on synthetic records; compensation on {COMP_SIZE:,} samples, "

@@ -489,6 +489,11 @@ class _Spec:
         return len(self.linear) + 2 * len(self.gm)
 
 
+#: A whitened NNLS coefficient below this fraction of the data's norm is a term at its zero
+#: bound (rounding of the solve), taken as exactly zero.
+NNLS_ZERO = 1e-10
+
+
 @dataclass(frozen=True)
 class _Fit:
     spec: _Spec
@@ -558,7 +563,10 @@ class _Problem:
         norm = np.linalg.norm(Aw, axis=0)
         norm[norm == 0] = 1.0
         c, rnorm = nnls(Aw / norm, bw, maxiter=50 * A.shape[1])
-        return _Fit(spec, c / norm, float(rnorm**2))
+        # a coefficient at rounding level of the solve is a term at its zero bound: scipy's
+        # nnls (1.15+) returns such terms as ~1e-14 of the data rather than exactly 0
+        c[c <= NNLS_ZERO * float(np.linalg.norm(bw))] = 0.0
+        return _Fit(spec, c / norm, float(np.sum((bw - (Aw / norm) @ c)**2)))
 
     # -- Gauss-Markov correlation times -------------------------------------------------------
     def t_bounds(self) -> tuple[float, float]:

@@ -316,7 +316,8 @@ def _signal_suite(cwd, sig, ready, *, wait_s, after_s, timeout_s, hung):
 def test_interrupted_suite_exits_cleanly_and_leaves_no_temporary_folders(home, sig, code):
     """Ctrl-C or SIGTERM while two workers simulate: the main process ends the workers, says so
     in one line, no worker prints a traceback, and no hidden .part folder is left."""
-    long = SCENARIO.replace("duration_s = 30.0", "duration_s = 3000.0").replace(
+    # 300 s of table motion: about 1 s of MuJoCo per run here, so the signal lands mid-way
+    long = SCENARIO.replace("duration_s = 30.0", "duration_s = 300.0").replace(
         'type = "hold"', 'type = "rate"\nrate_dps = 5.0')
     (home / "scn" / "tiny.toml").write_text(long)
     (home / "scn" / "tiny2.toml").write_text(long.replace('name = "tiny"', 'name = "tiny2"'))

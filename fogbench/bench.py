@@ -7,7 +7,8 @@ Measured in one run, each ``repeats`` times, medians quoted:
    physics steps per second and truth samples per second, and its ratio to (1);
 3. the FOG error model (``simulate_fog``, tactical preset, every term on): samples per second;
 
-then the Allan deviation, the CSV writer, every method, the replicates, and the noise identifier
+then the Allan deviation, the CSV writer, every method (the Kalman engines first), every bundled
+scenario's first run and one replicate after it, the replicates per second, and the noise identifier
 (``fogbench.bench_noise``: its accuracy and coverage on records of known noise, and the time to
 identify 10^7 samples), and the device-file round trip (``fogbench.bench_device``: every preset's
 static logs simulated, a device file fitted and compared with the preset).
@@ -96,6 +97,8 @@ def main(seconds: float = 600.0, repeats: int = 5, noise_seeds: int = 20) -> int
     print()
     bench_methods(repeats=min(repeats, 3))
     print()
+    bench_scenario_replicates()
+    print()
     bench_replicates()
     from .bench_noise import run as bench_noise
 
@@ -113,6 +116,54 @@ def _warm_up(i: int) -> int:
 
     time.sleep(0.2)  # keep this worker busy so that every worker gets one
     return i
+
+
+def bench_scenario_replicates(root=None) -> list[dict]:
+    """Every bundled scenario: its first run (the table's motion simulated by MuJoCo, then
+    replicate 0 in full, as ``fogbench run`` and the suite do) and one replicate after it (the
+    table's motion reused, what each further replicate costs a worker), in one process, each
+    once; the replicate as a ratio to the first run. ``make run`` costs about the first runs
+    plus (R - 1) replicates per scenario, shared between the processes."""
+    import tempfile
+    from pathlib import Path
+
+    from .executor import SerialExecutor
+    from .montecarlo import ScenarioMC
+
+    root = Path(root) if root else Path(__file__).resolve().parents[1] / "scenarios"
+    paths = sorted(root.glob("*.toml"))
+    print(f"Scenarios: the first run (table + replicate 0) and one replicate after it, one "
+          f"process, wall time, {len(paths)} scenario(s) of {root}")
+    print(f"  {'scenario':<26}{'table s':>9}{'replicate 0 s':>15}{'replicate 1 s':>15}"
+          f"{'replicate / first run':>23}{'replicates':>12}", flush=True)
+    rows = []
+    for path in paths:
+        with tempfile.TemporaryDirectory() as d:
+            mc = ScenarioMC(path, Path(d) / "run", replicates=2)
+            mc.simulate_truths()
+            t0 = time.perf_counter()
+            mc.run_first()
+            first_s = time.perf_counter() - t0
+            t0 = time.perf_counter()
+            with SerialExecutor() as ex:
+                mc.submit(ex)
+                mc.wait()
+            rep_s = time.perf_counter() - t0
+            failed = bool(mc.failures)
+            mc.work.remove()
+        row = {"scenario": mc.sc.name, "table_s": mc.truth_s, "first_s": first_s,
+               "replicate_s": rep_s, "ratio": rep_s / (mc.truth_s + first_s),
+               "replicates": mc.plan.replicates, "failed": failed}
+        rows.append(row)
+        print(f"  {row['scenario']:<26}{row['table_s']:>9.1f}{first_s:>15.1f}{rep_s:>15.1f}"
+              f"{row['ratio']:>23.2f}{row['replicates']:>12}"
+              + ("  (the replicate failed)" if failed else ""), flush=True)
+    total = sum(r["table_s"] + r["first_s"] + (r["replicates"] - 1) * r["replicate_s"]
+                for r in rows)
+    print(f"  one process would need about {total / 60:.1f} min for every scenario's replicates "
+          "(first run + (R - 1) replicates each); make run shares them between the processes "
+          "and also writes figures, recordings and the claim maps")
+    return rows
 
 
 def bench_replicates(names=("paper000_wnn", "paper002_acobp"), replicates: int = 10) -> None:

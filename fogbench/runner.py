@@ -1,7 +1,9 @@
 """The scenario runner: simulate the runs, fit every method, score it against the truth.
 
 For every protocol and every (fit, score) pairing it fits each method on the fit samples (with the
-truth rate as the reference a calibration rig provides) and scores it on the score samples, beside
+protocol's reference: the truth rate, an ideal lab's, or ``reference = "lab"``: the rate and the
+specific force a lab computes from the table's commands and its nominal site, ``sim/lab.py``;
+methods see the chosen specific force at scoring too) and scores it on the score samples, beside
 the raw output and the oracle (raw minus the true deterministic error terms: the floor that no
 compensator of the error model can beat without also filtering the signal). A method that fails
 (diverges, or raises) is recorded as failed with its message and the run goes on.
@@ -51,6 +53,8 @@ class Piece:
     temp: np.ndarray
     temp_rate: np.ndarray
     oracle: np.ndarray
+    ref: np.ndarray | None = None         # the reference rate the fit is handed (protocol's
+    #                                       reference: the lab's, sim/lab.py; None: the truth)
     saturated: np.ndarray | None = None   # (n,) float: fraction of the samples clipped (0 or 1
     #                                       unsmoothed; the fraction of the block when smoothed)
 
@@ -87,19 +91,32 @@ def _smooth(x: np.ndarray, k: int) -> np.ndarray:
     return x[:n].reshape((n // k, k) + x.shape[1:]).mean(axis=1)
 
 
-def make_piece(rd: RunData, sel: Selection, prot: Protocol, axis_j: int) -> Piece:
+def make_piece(rd: RunData, sel: Selection, prot: Protocol, axis_j: int, table=None,
+               lab=None) -> Piece:
     """The samples of one run that ``sel`` picks: selection, then smoothing (when the protocol
-    smooths, in blocks that never straddle a gap), then the stride (over the smoothed samples)."""
+    smooths, in blocks that never straddle a gap), then the stride (over the smoothed samples).
+
+    With the protocol's ``reference = "lab"`` the reference rate and the specific force a method
+    is handed are the lab's (``sim.lab.lab_reference`` from the commands, the table config
+    ``table`` and the lab's beliefs ``lab``); the truth stays for scoring."""
     plain = replace(sel, stride=1, offset=0)
     idx = select_indices(plain, rd.run, rd.fs, prot.skip_s, rd.truth.table_rate)
     truth = rd.truth_axis(axis_j)
+    ref, g = truth, rd.truth.specific_force
+    if prot.reference == "lab":
+        from sim.lab import LabKnowledge, lab_reference
+
+        if table is None:
+            raise ValueError(f"protocol {prot.name!r}: reference = 'lab' needs the table config")
+        rate_lab, g = lab_reference(rd.truth, table, lab or LabKnowledge())
+        ref = rate_lab[:, "xyz".index(rd.axes[axis_j])]
     det = sum((rd.fog.terms[k][:, axis_j] for k in DETERMINISTIC if k in rd.fog.terms),
               np.zeros(rd.n))
     # a compensator sees what a lab sees: the temperature sensor's reading and the dT/dt
     # differenced from it; the oracle (raw minus the true terms) keeps the true coil temperature
     sat = rd.fog.saturated
-    cols = dict(t=rd.truth.t, raw=rd.fog.raw[:, axis_j], truth=truth,
-                g=rd.truth.specific_force, temp=rd.thermal.sensor,
+    cols = dict(t=rd.truth.t, raw=rd.fog.raw[:, axis_j], truth=truth, ref=ref,
+                g=g, temp=rd.thermal.sensor,
                 temp_rate=rd.thermal.sensor_rate, oracle=rd.fog.raw[:, axis_j] - det,
                 saturated=(np.zeros(rd.n) if sat is None else sat[:, axis_j].astype(float)))
     fs = rd.fs
@@ -123,7 +140,7 @@ def concat(pieces: list[Piece]) -> Piece:
         return pieces[0]
     return Piece(run="+".join(p.run for p in pieces), fs=pieces[0].fs,
                  **{c: np.concatenate([getattr(p, c) for p in pieces])
-                    for c in ("t", "raw", "truth", "g", "temp", "temp_rate", "oracle",
+                    for c in ("t", "raw", "truth", "g", "temp", "temp_rate", "oracle", "ref",
                               "saturated")})
 
 
@@ -251,8 +268,10 @@ def run_scenario(path, progress=None, methods: list[str] | None = None, replicat
     for prot in plan.protocols:
         fits[prot.name] = {m.label: [] for m in plan.methods}
         for fit_sel, score_sel in expand(prot, sc):
-            fit_piece = concat([make_piece(data[s.run], s, prot, axis_j) for s in fit_sel])
-            pieces = [make_piece(data[s.run], s, prot, axis_j) for s in score_sel]
+            fit_piece = concat([make_piece(data[s.run], s, prot, axis_j, sc.table, plan.lab)
+                                for s in fit_sel])
+            pieces = [make_piece(data[s.run], s, prot, axis_j, sc.table, plan.lab)
+                      for s in score_sel]
             items = [Scored(prot.name, p.run, p) for p in pieces]
             for it in items:
                 it.outputs["raw"] = it.piece.raw
@@ -368,7 +387,8 @@ def _fit(ms, seed, fit_piece: Piece, fit_sel, score_sel, timeout_s: float | None
                 if seed is not None:
                     model.random_state = seed
                 t0 = time.perf_counter()
-                model.fit(fit_piece.gyro(), fit_piece.truth)
+                model.fit(fit_piece.gyro(),
+                          fit_piece.truth if fit_piece.ref is None else fit_piece.ref)
                 rec["fit_time_s"] = time.perf_counter() - t0
             rec["status"] = "ok"
         except _METHOD_FAILURES as exc:  # any failure of a method is reported, not fatal

@@ -24,6 +24,7 @@ import numpy as np
 
 from fogcomp import units as U
 from sim.fog import TERMS, FogParams
+from sim.lab import LabKnowledge
 from sim.motion import ConstantRate, Hold, Positions, RateSteps, SineRate, positions_move_fits
 from sim.rate_table import TableConfig
 from sim.rig import PRESETS_PATH, Rig, Run, load_presets
@@ -37,7 +38,7 @@ __all__ = ["ScenarioError", "Scenario", "Run", "load_scenario", "load_presets", 
 
 # Top-level tables of the compensation part (validated by load_plan below); others are refused.
 RUNNER_SECTIONS = ("compensation", "protocols", "methods", "bounds", "paper", "claims",
-                   "montecarlo", "map")
+                   "montecarlo", "map", "lab")
 MAX_REPLICATES = 10_000
 
 
@@ -788,6 +789,7 @@ class Protocol:
     in_sample: bool
     skip_s: float
     smooth_s: float | None
+    reference: str = "truth"       # what the fit is handed: "truth" (an ideal lab) or "lab"
 
 
 @dataclass(frozen=True)
@@ -899,6 +901,7 @@ class Plan:
     mc_seed: int | None = None     # [montecarlo] seed (default: a hash of the scenario name)
     map: "MapSpec | None" = None   # [map]: the claims at other values of open keys
     fit_timeout_s: float = DEFAULT_FIT_TIMEOUT_S   # [compensation]: per fit and per compensate
+    lab: "LabKnowledge | None" = None   # [lab]: what the lab believes (protocols reference = "lab")
 
 
 def _segment_bounds(run: Run, fs: float) -> list[tuple[int, int]]:
@@ -1052,6 +1055,7 @@ def load_plan(sc: Scenario) -> Plan:
             in_sample=t.get("in_sample", "bool", False),
             skip_s=t.get("skip_s", "float", 0.0, lo=0.0),
             smooth_s=t.get("smooth_s", "float", None, lo=0.0, lo_open=True),
+            reference=t.get("reference", "str", "truth", choices={"truth", "lab"}),
         )
         if prot.smooth_s is not None:
             k = prot.smooth_s * sc.fs
@@ -1168,12 +1172,38 @@ def load_plan(sc: Scenario) -> Plan:
     method_seeds = mc.get("method_seeds", "int", 1, lo=1, hi=1000)
     mc_seed = mc.get("seed", "int", None, lo=0, hi=2**63 - 1)
     mc.done()
+    lab = _lab_knowledge(_Table(extra.get("lab", "table", {}), "[lab]", file))
+    if lab is not None and not any(p.reference == "lab" for p in protocols):
+        raise extra.err("lab", "no protocol has reference = \"lab\": the [lab] keys would "
+                        "change nothing")
     extra.used.add("map")
     extra.done()
     plan = Plan(tuple(protocols), tuple(methods), tuple(bounds), tuple(paper), axis, ci, notes,
-                tuple(claims), replicates, method_seeds, mc_seed, fit_timeout_s=fit_timeout_s)
+                tuple(claims), replicates, method_seeds, mc_seed, fit_timeout_s=fit_timeout_s,
+                lab=lab)
     spec = _load_map(extra, sc, plan)
     return replace(plan, map=spec) if spec is not None else plan
+
+
+def _lab_knowledge(t: _Table):
+    """[lab]: what the lab believes of its table and site (``sim.lab.LabKnowledge``), as errors
+    against the truth; None when the section is absent (protocols with reference = "lab" then
+    use a lab that knows its site and table exactly, but still only their commands)."""
+    if not t.data:
+        t.done()
+        return None
+    arcsec = math.pi / (180.0 * 3600.0)
+    lab = LabKnowledge(
+        latitude_error=math.radians(t.get("latitude_error_deg", "float", 0.0, lo=-10.0, hi=10.0)),
+        heading_error=math.radians(t.get("heading_error_deg", "float", 0.0, lo=-10.0, hi=10.0)),
+        tilt_zero_error=t.get("tilt_zero_error_arcsec", "float", 0.0, lo=-3600.0,
+                              hi=3600.0) * arcsec,
+        radius_error=t.get("radius_error_mm", "float", 0.0, lo=-100.0, hi=100.0) * 1e-3,
+        encoder_resolution=t.get("encoder_resolution_arcsec", "float", 0.0, lo=0.0,
+                                 hi=3600.0) * arcsec,
+        rate_source=t.get("rate_source", "str", "command", choices={"command", "encoder"}))
+    t.done()
+    return lab
 
 
 MAX_SWEEP = 64

@@ -77,7 +77,9 @@ class Truth:
     the Earth's rate (what MuJoCo's gyro reads), rad/s.  specific_force : accelerometer reading
     averaged over each sample, in g (9.80665 m/s^2), shape (n, 3).  gravity : gravity projection on
     the sensor axes (no motion), in g, shape (n, 3).  tilt, turn : joint angles, rad.
-    tilt_rate, turn_rate : joint rates, rad/s.  tilt_cmd, turn_rate_cmd : commands, rad and rad/s.
+    tilt_rate, turn_rate : joint rates, rad/s.  tilt_cmd, turn_rate_cmd : commands, rad and rad/s
+    (the tilt at each sample's start, the turntable rate averaged over it; turn_rate_cmd_first:
+    the turntable rate command at each sample's start).
     fog_quat, tilt_quat, turntable_quat : body/site orientations (w, x, y, z) in the world frame.
     fog_pos : FOG site position, m, shape (n, 3).
     """
@@ -100,6 +102,7 @@ class Truth:
     fog_pos: np.ndarray
     physics_steps: int = 0
     settled_fast_path_s: float = 0.0
+    turn_rate_cmd_first: np.ndarray | None = None   # the rate command at each sample's start
 
     def as_arrays(self) -> dict[str, np.ndarray]:
         return {k: v for k, v in self.__dict__.items() if isinstance(v, np.ndarray)}
@@ -305,4 +308,5 @@ def simulate_truth(segments, fs: float, cfg: TableConfig = TableConfig(), tilt0:
         fog_quat=fog_quat, tilt_quat=firsts[:, sl["tilt_quat"]],
         turntable_quat=firsts[:, sl["turntable_quat"]], fog_pos=firsts[:, sl["fog_pos"]],
         physics_steps=roller.steps, settled_fast_path_s=fast_s,
+        turn_rate_cmd_first=cfirst[:, 1],
     )

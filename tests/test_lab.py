@@ -1,0 +1,254 @@
+"""The lab's references (sim/lab.py) against the truth and against the algebra, issue 24.
+
+Each expected value is computed by hand here from the Earth rate (WGS-84 Omega), the latitude,
+the heading and the positions, not from sim/lab.py's formulas: a perfect, settled table's lab
+reference is the truth to the servo's error; a heading error e moves the reference by the Earth
+rate's horizontal component times e on the horizontal axis only; a tilt zero error d rotates the
+believed gravity by d, and the g-sensitivities a least-squares fit finds by the same rotation."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from sim.lab import LabKnowledge, lab_reference
+from sim.motion import ConstantRate, Hold, Positions
+from sim.rate_table import TableConfig, simulate_truth
+
+OMEGA = 7.2921150e-5            # rad/s, WGS-84
+LAT = math.radians(45.0)
+
+
+@pytest.fixture(scope="module")
+def program():
+    """Six positions (tilt 0, 90, 180 deg; turntable 0, 90 deg; 30 s each), a hold, a 20 deg/s
+    plateau, holds at 0 and 90 deg of tilt: 10 Hz, ~5 min."""
+    cfg = TableConfig(radius=0.1, latitude=LAT, heading=math.radians(30.0))
+    segs = [Positions(tilts=(0.0, math.pi / 2, math.pi), headings=(0.0, math.pi / 2), dwell=20.0,
+                      move_time=10.0),
+            Hold(20.0, tilt=0.0), ConstantRate(40.0, math.radians(20.0)), Hold(20.0),
+            Hold(20.0, tilt=math.radians(90.0))]
+    return cfg, simulate_truth(segs, 10.0, cfg)
+
+
+def _settled(truth, tol=1e-7):
+    """Samples where the tilt command holds still, the tilt has settled after its move (joint
+    rate below 1e-4 rad/s) and the turntable follows its rate command (error below ``tol``)."""
+    err = np.abs(truth.turn_rate - truth.turn_rate_cmd)
+    still = np.abs(np.diff(truth.tilt_cmd, append=truth.tilt_cmd[-1])) == 0
+    return (err < tol) & still & (np.abs(truth.tilt_rate) < 1e-4)
+
+
+def test_on_a_perfect_settled_table_the_lab_reference_is_the_truth_to_the_servos_error(program):
+    """The servo's error is read off the simulated joints: the tilt and turntable angles
+    against their commands (an attitude error of a, which turns a unit vector by at most a) and
+    the joints' rates against theirs. The unbalanced FOG (0.1 m off the turntable axis) makes
+    both real: the tilt servo sags ~6e-5 rad (12 arcsec) under its weight and ripples at the
+    turntable's frequency while it spins (~2e-5 rad/s on the sensor's x and y)."""
+    from sim.lab import commanded_angles
+
+    cfg, truth = program
+    rate, f = lab_reference(truth, cfg)
+    ok = _settled(truth)
+    assert ok.sum() > 0.8 * ok.size
+    _, turn_mid = commanded_angles(truth)
+    turn_cmd = turn_mid - truth.turn_rate_cmd / (2 * truth.fs)     # at each sample's start
+    att = np.abs(truth.tilt - truth.tilt_cmd) + np.abs(truth.turn - turn_cmd)
+    joint_rate = np.abs(truth.tilt_rate) + np.abs(truth.turn_rate - truth.turn_rate_cmd)
+    dr = np.abs(rate - truth.rate).max(axis=1)
+    df = np.abs(f - truth.specific_force).max(axis=1)
+    # slack: 1e-9 rad/s (the angle moves within a sample), 1e-6 g (rounding of the means)
+    # a rate vector (the Earth's, the turntable's) seen through an attitude error a moves by at
+    # most its magnitude times a
+    spin = OMEGA + np.abs(truth.turn_rate_cmd)
+    assert np.all(dr[ok] <= joint_rate[ok] + spin[ok] * att[ok] * 1.01 + 1e-9)
+    # and the tilt's own settling: its angular acceleration at the sensor's lever arm about the
+    # tilt axis (at most hypot(height, radius)), which the lab, calibrating on dwells, ignores
+    lever = math.hypot(cfg.height, cfg.radius)
+    tilt_acc = np.abs(np.gradient(truth.tilt_rate)) * truth.fs * lever / 9.80665
+    assert np.all(df[ok] <= att[ok] * 1.01 + 2 * tilt_acc[ok] + 1e-6)
+    assert att[ok].max() > 1e-5          # the servo's error is there, and bounded by the above
+    # at rest before the table first moves (the FOG on the tilt axis' line: no sag) the lab
+    # reference is the truth to rounding
+    assert np.max(np.abs(rate[:290] - truth.rate[:290])) < 1e-15
+    # on the plateau the centripetal term is the algebra's omega^2 r (20 deg/s, 0.1 m)
+    plateau = ok & (np.abs(truth.turn_rate_cmd - math.radians(20.0)) < 1e-12)
+    assert plateau.sum() > 100
+    assert np.allclose(f[plateau, 0] ** 2 + f[plateau, 1] ** 2,
+                       (math.radians(20.0) ** 2 * 0.1 / 9.80665) ** 2, rtol=1e-9)
+
+
+def test_a_heading_error_moves_the_reference_by_the_horizontal_earth_rate_times_it(program):
+    cfg, truth = program
+    e = math.radians(0.5)
+    good, _ = lab_reference(truth, cfg)
+    bad, _ = lab_reference(truth, cfg, LabKnowledge(heading_error=e))
+    d = bad - good
+    # static, tilt 0, turntable at 0: sensor axes = world axes (x at azimuth psi = 30 deg).
+    # north = (cos psi, sin psi, 0): the Earth rate's world x, y components Omega cos L cos psi,
+    # Omega cos L sin psi; their change for psi -> psi + e: Omega cos L (-sin psi, cos psi) e
+    i = 150                                    # 15 s into the first position
+    psi = math.radians(30.0)
+    h = OMEGA * math.cos(LAT)
+    exp = [h * (math.cos(psi + e) - math.cos(psi)), h * (math.sin(psi + e) - math.sin(psi)), 0.0]
+    assert d[i] == pytest.approx(exp, abs=1e-15)
+    assert abs(d[i, 0] - (-h * math.sin(psi) * e)) < h * e * e      # first order
+    assert d[i, 2] == 0.0                                           # up: unchanged
+    # a bias fitted on the lab reference absorbs it: the mean of (output - reference) over the
+    # hold of a perfect sensor (output = truth) is -d, the error a lab would book as bias
+    hold = slice(110, 290)
+    bias_x = np.mean(truth.rate[hold, 0] - bad[hold, 0])
+    assert bias_x == pytest.approx(-exp[0], rel=1e-3, abs=1e-12)
+
+
+def test_a_latitude_error_moves_north_and_up_as_the_algebra_says(program):
+    cfg, truth = program
+    e = math.radians(0.2)
+    good, _ = lab_reference(truth, cfg)
+    bad, _ = lab_reference(truth, cfg, LabKnowledge(latitude_error=e))
+    i, psi = 150, math.radians(30.0)
+    dn = OMEGA * (math.cos(LAT + e) - math.cos(LAT))
+    du = OMEGA * (math.sin(LAT + e) - math.sin(LAT))
+    assert (bad - good)[i] == pytest.approx([dn * math.cos(psi), dn * math.sin(psi), du],
+                                            abs=1e-15)
+
+
+def test_a_tilt_zero_error_rotates_the_g_sensitivity_a_fit_finds(program):
+    """Three positions about the tilt axis (tilt 0, 90, 180 deg; turntable at 0): the sensor's
+    (y, z) see gravity (sin t, cos t) = (0, 1), (1, 0), (0, -1). A lab whose tilt zero is off by
+    d believes (sin(t + d), cos(t + d)) = M (y, z), M = [[c, s], [-s, c]]. A sensor with
+    g-sensitivities k = (k_y, k_z) outputs b + k . f_true; fitting b + k' . f_believed gives
+    k' = M k0, k0 the fit with d = 0 (a linear change of the regressors), so k' - k0 =
+    d (k0_z, -k0_y) to first order: computed here, not by the code under test. k0 itself is k
+    but for the servo's sag under the FOG's weight (the lab believes the command; the table
+    sags up to ~6e-5 rad at 90 deg): within that angle times |k|."""
+    cfg, truth = program
+    d = math.radians(20.0 / 3600.0)               # 20 arcsec
+    _, f0 = lab_reference(truth, cfg)
+    _, fd = lab_reference(truth, cfg, LabKnowledge(tilt_zero_error=d))
+    # the positions' dwells with the turntable at 0 (at 90 deg gravity moves to the sensor's x)
+    ok = _settled(truth) & (truth.t < 180.0) & (np.abs(np.sin(truth.turn)) < 1e-3)
+    assert ok.sum() > 400
+    k, b = np.array([0.3, -0.7]), 0.05              # any units: the algebra is linear
+    y = b + truth.specific_force[ok, 1:] @ k
+
+    def fit(f):
+        coef, *_ = np.linalg.lstsq(np.column_stack([np.ones(ok.sum()), f[ok, 1:]]), y,
+                                   rcond=None)
+        return coef[0], coef[1:]
+
+    b0, k0 = fit(f0)
+    bd, kd = fit(fd)
+    sag = np.abs(truth.tilt - truth.tilt_cmd)[ok].max()
+    assert 1e-5 < sag < 1e-4
+    assert np.all(np.abs(k0 - k) <= 2 * sag * np.linalg.norm(k))
+    c, s = math.cos(d), math.sin(d)
+    # (to 1e-9: the turntable angle integrated from its commands is 0 to ~1e-10 rad)
+    assert kd == pytest.approx([c * k0[0] + s * k0[1], -s * k0[0] + c * k0[1]], abs=1e-9)
+    assert kd - k0 == pytest.approx(d * np.array([k0[1], -k0[0]]), abs=d * d)
+    assert bd == pytest.approx(b0, abs=1e-12)
+
+
+def test_the_encoder_reading_sees_the_servo_and_its_resolution(program):
+    cfg, truth = program
+    q = math.radians(1.0 / 3600.0)                 # a 1 arcsec encoder
+    enc, _ = lab_reference(truth, cfg, LabKnowledge(rate_source="encoder", encoder_resolution=q))
+    cmd, _ = lab_reference(truth, cfg)
+    ok = _settled(truth)
+    # differenced at 10 Hz, a 1 arcsec step is 10 arcsec/s = 4.8e-5 rad/s at most per sample
+    assert np.max(np.abs(enc[ok, 2] - cmd[ok, 2])) <= q * truth.fs * 1.0001
+    # and over a hold at rest it reads zero rate exactly (the angle does not change a step)
+    assert np.all(enc[110:290, 2] == cmd[110:290, 2])
+
+
+@pytest.mark.parametrize("kw, msg", [({"rate_source": "gps"}, "rate_source"),
+                                     ({"encoder_resolution": -1.0}, "encoder_resolution"),
+                                     ({"heading_error": float("nan")}, "heading_error")])
+def test_bad_lab_knowledge_is_refused_naming_the_field(kw, msg):
+    with pytest.raises(ValueError, match=msg):
+        LabKnowledge(**kw)
+
+
+LAB_SCENARIO = """
+[scenario]
+name = "lab_heading"
+sample_rate_hz = 10.0
+
+[table]
+latitude_deg = 45.0
+heading_deg = 90.0        # the sensor's x (the tilt axis) points east: no Earth rate on it
+
+[fog]
+preset = "tactical"
+axes = ["x"]
+
+[lab]
+heading_error_deg = 1.0
+
+[[runs]]
+name = "a"
+seed = 1
+[[runs.motion]]
+type = "hold"
+duration_s = 120.0
+
+[[runs]]
+name = "b"
+seed = 2
+[[runs.motion]]
+type = "hold"
+duration_s = 60.0
+
+[[protocols]]
+name = "lab"
+reference = "lab"
+fit = ["a"]
+score = ["b"]
+
+[[protocols]]
+name = "ideal"
+fit = ["a"]
+score = ["b"]
+
+[[methods]]
+name = "model_lstsq"
+params = { terms = ["bias"] }
+"""
+
+
+def test_the_runner_hands_the_fit_the_labs_reference_and_scores_on_the_truth(tmp_path):
+    """A level table, the sensor's x east (Earth rate 0 on it), a lab that believes the heading
+    1 deg off: it believes x at azimuth 91 deg, where the Earth rate's x component is
+    Omega cos L cos 91 deg = -Omega cos L sin 1 deg. A bias fitted on its reference is the
+    ideal lab's plus Omega cos L sin 1 deg (0.186 deg/h at 45 deg), and the scored output is off
+    the truth by that much more: by hand, not from sim/lab.py."""
+    from fogbench.runner import run_scenario
+    from fogcomp.units import DPH
+
+    path = tmp_path / "lab.toml"
+    path.write_text(LAB_SCENARIO)
+    res = run_scenario(str(path))
+    bias = {p: res.fits[p]["model_lstsq"][0]["coefficients"]["bias_dph"] for p in ("lab", "ideal")}
+    expect = OMEGA * math.cos(LAT) * math.sin(math.radians(1.0)) / DPH
+    assert expect == pytest.approx(0.186, abs=0.001)
+    # at rest the command is the truth but for the servo's hold (~1e-9 rad/s here)
+    assert bias["lab"] - bias["ideal"] == pytest.approx(expect, abs=1e-4)
+    mean_err = {s.protocol: s.metrics["model_lstsq"]["mean_error_dph"] for s in res.scored}
+    assert mean_err["ideal"] - mean_err["lab"] == pytest.approx(expect, abs=1e-4)
+
+
+def test_lab_keys_without_a_lab_protocol_are_refused(tmp_path):
+    from fogbench.scenario import ScenarioError, load_plan, load_scenario, RUNNER_SECTIONS
+
+    path = tmp_path / "lab.toml"
+    path.write_text(LAB_SCENARIO.replace('reference = "lab"\n', ""))
+    with pytest.raises(ScenarioError, match=r"'lab'.*reference"):
+        load_plan(load_scenario(path, extra_sections=RUNNER_SECTIONS))
+    path.write_text(LAB_SCENARIO.replace("heading_error_deg = 1.0", "heading_eror_deg = 1.0"))
+    with pytest.raises(ScenarioError, match="heading_eror_deg"):
+        load_plan(load_scenario(path, extra_sections=RUNNER_SECTIONS))
+    path.write_text(LAB_SCENARIO.replace('reference = "lab"', 'reference = "encoder"'))
+    with pytest.raises(ScenarioError, match="reference"):
+        load_plan(load_scenario(path, extra_sections=RUNNER_SECTIONS))

@@ -388,6 +388,13 @@ def _over_seeds(docs, prot: str, runs: list[str], better: str, than: str, metric
     return out
 
 
+#: The metrics whose lab-minus-ideal difference the report gives: lower is better in each, and
+#: the signed mean error (what a bias fitted on a wrong reference absorbs), judged by its size.
+LAB_COST_METRICS = ("mean_error_dph", "rmse_dph", "drift_rms_dph", "coef_rms_error_dph",
+                    "bias_stability_100s_dph")
+_SIGNED = ("mean_error_dph",)
+
+
 def aggregate(docs: list[dict], sc, plan) -> dict:
     """The replicate distributions of every metric, claim and ranking (see the module doc)."""
     import fogcomp
@@ -509,6 +516,30 @@ def aggregate(docs: list[dict], sc, plan) -> dict:
                            "over_seeds": _over_seeds(docs, prot.name, runs, c.better, c.than,
                                                      c.metric)})
 
+    # what the lab's references cost each method: its metric fitted on the lab's references
+    # minus fitted on the truth (the ideal-lab twin protocol), replicate by replicate (the same
+    # power-ons and the same random starts in both)
+    lab_cost = []
+    for prot in plan.protocols:
+        if prot.twin_of is None or prot.twin_of not in runs_of:
+            continue
+        runs = [r for r in runs_of[prot.twin_of] if r in runs_of[prot.name]]
+        for m in plan.methods:
+            for metric in LAB_COST_METRICS:
+                if metric not in over_runs[prot.twin_of].get(m.label, {}) or \
+                        metric not in over_runs[prot.name].get(m.label, {}):
+                    continue
+                a = _over_runs(docs, prot.twin_of, runs, m.label, metric)
+                b = _over_runs(docs, prot.name, runs, m.label, metric)
+                pair = S.paired_difference(a, b, better="lower").as_dict()
+                if metric in _SIGNED:    # worse: further from 0
+                    size = S.paired_difference(np.abs(a), np.abs(b), better="lower").as_dict()
+                    pair["second_better"] = size["second_better"]
+                lab_cost.append({"protocol": prot.twin_of, "ideal": prot.name,
+                                 "method": m.label, "metric": metric, "runs": runs,
+                                 "lab": S.summarize(a).as_dict(),
+                                 "truth": S.summarize(b).as_dict(), "paired": pair})
+
     rankings = []
     groups: dict = {}
     for pv in plan.paper:
@@ -534,6 +565,7 @@ def aggregate(docs: list[dict], sc, plan) -> dict:
                     "orderings": [o.as_dict() for o in orders]})
     return {"replicates": len(docs), "summary": summary, "over_runs": over_runs,
             "seed_spread": seed_spread, "claims": claims, "rankings": rankings,
+            "lab_cost": lab_cost,
             "series": series, "start_series": start_series,
             "interval": "95 % Student t-interval of the mean over replicates "
                         "(fogbench.stats.summarize)"}

@@ -939,6 +939,24 @@ def render_montecarlo(res: ScenarioResult, mc: dict, fig_names: dict) -> str:
                         f" (not a bound here: {c['better']} also filters noise)") + "."
                      + over_seeds_text(c))
         L.append("")
+    if mc.get("lab_cost"):
+        L += ["### What the lab's references cost", "",
+              "Each method fitted on what a lab has (protocol `reference = \"lab\"`: the table's "
+              "commands, the Earth rate at the believed latitude and heading, gravity through "
+              "the commanded attitude; `sim/lab.py`) and on the truth (the ideal lab, protocol "
+              "`<name>.ideal`), both scored against the truth on the same power-ons: the lab's "
+              "value minus the ideal one, mean [95 % t-interval] over replicates, and the share "
+              "of replicates where the lab's fit did worse (for the signed mean error: further from 0).", ""]
+        rows = []
+        for c in mc["lab_cost"]:
+            d, pr = c["paired"]["diff"], c["paired"]
+            worse = pr.get("second_better")
+            rows.append([f"`{c['protocol']}`", c["method"], c["metric"],
+                         ci_text(c["lab"], c["metric"]), ci_text(c["truth"], c["metric"]),
+                         ci_text(d, c["metric"]),
+                         "–" if worse is None else f"{100 * worse:.0f} %"])
+        L += [md_table(["protocol", "method", "metric", "lab reference", "ideal (truth)",
+                        "lab - ideal", "lab worse in"], rows), ""]
     if mc["rankings"]:
         L += ["### Rankings against the papers' tables", "",
               "Probability of each ordering over replicates (`<` reads 'better than').", ""]

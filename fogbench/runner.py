@@ -463,7 +463,8 @@ def method_seed(sc, plan, prot, ms, fit_sel, replicate: int, k: int) -> int:
     runs = [r.name for r in sc.runs]
     first = runs.index(fit_sel[0].run) if fit_sel and fit_sel[0].run in runs else 0
     # the members of a sweep share their random numbers: a band shows the setting, not the start
-    stream = f"method:{prot.name}:{ms.group or ms.label}:{'|'.join(s.run for s in fit_sel)}:{k}"
+    stream = (f"method:{prot.seed_name}:{ms.group or ms.label}:"
+              f"{'|'.join(s.run for s in fit_sel)}:{k}")
     return replicate_seed(scenario_seed(sc, plan), replicate, first, stream)
 
 
@@ -471,7 +472,7 @@ def _method_seed(sc, prot, ms, fit_sel) -> int:
     """A method's seed, derived from the scenario, protocol, method and fit runs (stable)."""
     import zlib
 
-    key = f"{sc.name}|{prot.name}|{ms.label}|{'|'.join(s.run for s in fit_sel)}"
+    key = f"{sc.name}|{prot.seed_name}|{ms.label}|{'|'.join(s.run for s in fit_sel)}"
     return zlib.crc32(key.encode())
 
 

@@ -502,9 +502,22 @@ def _table_cfg(tbl: _Table) -> TableConfig:
         settle_time=tbl.get("settle_time_s", "float", 5.0, lo=0.5, hi=600.0),
         turn_accel=math.radians(tbl.get("turn_accel_dps2", "float", 200.0, lo=1.0, hi=5000.0)),
         earth_rate=tbl.get("earth_rate", "bool", True),
+        turn_axis_error=tbl.get("turn_axis_error_arcsec", "float", 0.0, lo=-3600.0,
+                                hi=3600.0) * _ARCSEC,
+        level_error=_level(tbl),
     )
     tbl.done()
     return cfg
+
+
+_ARCSEC = math.pi / (180.0 * 3600.0)
+
+
+def _level(tbl: _Table) -> tuple[float, float]:
+    v = tbl.get("level_error_arcsec", "floats", [0.0, 0.0], lo=-3600.0, hi=3600.0)
+    if len(v) != 2:
+        raise tbl.err("level_error_arcsec", f"expected [about x, about y], got {len(v)} values")
+    return v[0] * _ARCSEC, v[1] * _ARCSEC
 
 
 def _thermal(tbl: _Table) -> ThermalProgram:
@@ -790,6 +803,13 @@ class Protocol:
     skip_s: float
     smooth_s: float | None
     reference: str = "truth"       # what the fit is handed: "truth" (an ideal lab) or "lab"
+    twin_of: str | None = None     # the lab protocol this one is the ideal-lab reading of
+
+    @property
+    def seed_name(self) -> str:
+        """The name random starts derive from: an ideal-lab twin draws its lab protocol's, so
+        that the two readings differ by the reference alone."""
+        return self.twin_of or self.name
 
 
 @dataclass(frozen=True)
@@ -1065,8 +1085,14 @@ def load_plan(sc: Scenario) -> Plan:
         t.done()
         _check_overlap(prot, sc, file)
         protocols.append(prot)
+    # every protocol fitted on the lab's references is also run on the truth (the ideal lab),
+    # beside it, named <name>.ideal: the paired difference is what the lab's references cost
+    protocols += [replace(p, name=f"{p.name}.ideal", reference="truth", twin_of=p.name,
+                          description=f"{p.description} (ideal lab: fitted on the truth)".strip())
+                  for p in protocols if p.reference == "lab"]
     if len({p.name for p in protocols}) != len(protocols):
-        raise extra.err("protocols", "protocol names must be unique")
+        raise extra.err("protocols", "protocol names must be unique (a protocol with reference "
+                        "= \"lab\" adds <name>.ideal)")
     if any(p.in_sample for p in protocols) and all(p.in_sample for p in protocols):
         raise extra.err("protocols", "an in_sample protocol must stand beside a held-out one "
                         "(in_sample = false) in the same scenario")
@@ -1192,7 +1218,7 @@ def _lab_knowledge(t: _Table):
     if not t.data:
         t.done()
         return None
-    arcsec = math.pi / (180.0 * 3600.0)
+    arcsec = _ARCSEC
     lab = LabKnowledge(
         latitude_error=math.radians(t.get("latitude_error_deg", "float", 0.0, lo=-10.0, hi=10.0)),
         heading_error=math.radians(t.get("heading_error_deg", "float", 0.0, lo=-10.0, hi=10.0)),

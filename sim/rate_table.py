@@ -54,6 +54,10 @@ class TableConfig:
     tilt_slew : peak tilt rate of a tilt move, rad/s.  settle_time : see module doc, s.
     turn_accel : turntable acceleration limit of rate changes, rad/s^2.
     earth_rate : include the Earth's rotation in the truth.
+    turn_axis_error : the turntable's axis tilted from the platform normal toward the platform's
+    x, rad (an orthogonality error: the FOG cones by up to twice it as the turntable turns).
+    level_error : the base tilted about world x and y, rad (a table not levelled).
+    A lab (sim/lab.py) believes both are zero.
     """
 
     radius: float = 0.0
@@ -66,6 +70,8 @@ class TableConfig:
     settle_time: float = 5.0
     turn_accel: float = math.radians(200.0)
     earth_rate: bool = True
+    turn_axis_error: float = 0.0
+    level_error: tuple[float, float] = (0.0, 0.0)
 
 
 @dataclass(frozen=True)
@@ -114,6 +120,15 @@ def load_model(cfg: TableConfig = TableConfig(), dt: float | None = None) -> muj
     spec.body("fog").pos = [cfg.radius, 0.0, cfg.height]
     spec.option.gravity = [0.0, 0.0, -cfg.gravity]
     spec.option.timestep = cfg.physics_dt if dt is None else dt
+    if cfg.turn_axis_error:
+        a = cfg.turn_axis_error
+        spec.joint("turn").axis = [math.sin(a), 0.0, math.cos(a)]
+    lx, ly = cfg.level_error
+    if lx or ly:
+        # the base rotated by the small-angle vector (lx, ly, 0): axis-angle as a quaternion
+        ang = math.hypot(lx, ly)
+        spec.body("base").quat = [math.cos(ang / 2), math.sin(ang / 2) * lx / ang,
+                                  math.sin(ang / 2) * ly / ang, 0.0]
     model = spec.compile()
     for name, dim in _SENSORS.items():
         sid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, name)

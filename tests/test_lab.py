@@ -9,6 +9,7 @@ believed gravity by d, and the g-sensitivities a least-squares fit finds by the 
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -252,3 +253,64 @@ def test_lab_keys_without_a_lab_protocol_are_refused(tmp_path):
     path.write_text(LAB_SCENARIO.replace('reference = "lab"', 'reference = "encoder"'))
     with pytest.raises(ScenarioError, match="reference"):
         load_plan(load_scenario(path, extra_sections=RUNNER_SECTIONS))
+
+
+def test_a_table_off_level_and_a_turntable_axis_off_normal_as_the_geometry_says():
+    """Level error e about x: at rest, tilt 0, the sensor's y reads gravity sin e. A turntable
+    axis tilted by a from the platform normal: half a turn later the sensor's z has turned by
+    2a from the normal (the body reflected about the skewed axis), so x and y read sin 2a of
+    gravity. A lab believing a perfect table reads 0 on both: its error is that much."""
+    a = math.radians(30.0 / 3600.0)
+    cfg = TableConfig(level_error=(a, 0.0))
+    truth = simulate_truth([Hold(10.0, tilt=0.0)], 10.0, cfg)
+    _, f_lab = lab_reference(truth, cfg)
+    assert truth.specific_force[50, 1] == pytest.approx(math.sin(a), rel=1e-4)
+    assert f_lab[50, 1] == 0.0
+    cfg = TableConfig(turn_axis_error=a)
+    # half a turn at 18 deg/s (10 s), then a hold
+    truth = simulate_truth([ConstantRate(10.0, math.radians(18.0)), Hold(20.0)], 10.0, cfg)
+    f = truth.specific_force[250]
+    assert math.hypot(f[0], f[1]) == pytest.approx(math.sin(2 * a), rel=0.02)
+    _, f_lab = lab_reference(truth, cfg)
+    assert math.hypot(f_lab[250, 0], f_lab[250, 1]) < 1e-9
+
+
+def test_table_imperfections_are_scenario_keys(tmp_path):
+    from fogbench.scenario import RUNNER_SECTIONS, ScenarioError, load_scenario
+
+    path = tmp_path / "lab.toml"
+    path.write_text(LAB_SCENARIO.replace("heading_deg = 90.0", "heading_deg = 90.0\n"
+                                         "turn_axis_error_arcsec = 5.0\n"
+                                         "level_error_arcsec = [2.0, -3.0]"))
+    sc = load_scenario(path, extra_sections=RUNNER_SECTIONS)
+    arcsec = math.radians(1.0 / 3600.0)
+    assert sc.table.turn_axis_error == pytest.approx(5 * arcsec)
+    assert sc.table.level_error == pytest.approx((2 * arcsec, -3 * arcsec))
+    path.write_text(LAB_SCENARIO.replace("heading_deg = 90.0", "heading_deg = 90.0\n"
+                                         "level_error_arcsec = [2.0]"))
+    with pytest.raises(ScenarioError, match="level_error_arcsec"):
+        load_scenario(path, extra_sections=RUNNER_SECTIONS)
+
+
+def test_the_bundled_lab_scenario_books_the_heading_error_as_bias_as_computed_by_hand():
+    """scenarios/lab_references.toml, replicate 0: on its static dwell the sensor's x is level
+    and east-west (turntable at 90 deg: its azimuth 90 deg off the tilt axis' north), where a
+    1 deg heading error moves the believed Earth rate on x by Omega cos 45 deg sin 1 deg =
+    0.1856 deg/h. The bias fitted on the lab's reference minus the ideal lab's is that, plus
+    what the servo's sag under the off-axis FOG turns of the Earth rate (~6e-5 rad x 15 deg/h,
+    1e-3 deg/h): within 1 %."""
+    from fogbench.runner import run_scenario
+    from fogcomp.units import DPH
+
+    res = run_scenario(str(Path(__file__).resolve().parents[1] / "scenarios"
+                           / "lab_references.toml"))
+    rd = res.data["switch_on_1"]
+    dwell = rd.truth.t > rd.truth.t[-1] - 1100.0
+    assert np.allclose(np.abs(np.sin(rd.truth.turn[dwell])), 1.0, atol=1e-6)
+    assert np.allclose(rd.truth.tilt[dwell], 0.0, atol=1e-4)
+    fits = {p: [f["coefficients"]["bias_dph"] for f in res.fits[p]["bias_lstsq"]]
+            for p in ("bias_lab", "bias_lab.ideal")}
+    expect = OMEGA * math.cos(LAT) * math.sin(math.radians(1.0)) / DPH
+    for lab, ideal in zip(fits["bias_lab"], fits["bias_lab.ideal"]):
+        assert lab - ideal == pytest.approx(-expect, rel=0.01) or \
+            lab - ideal == pytest.approx(expect, rel=0.01), (lab, ideal, expect)

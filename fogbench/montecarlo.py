@@ -529,14 +529,18 @@ def aggregate(docs: list[dict], sc, plan) -> dict:
                 if metric not in over_runs[prot.twin_of].get(m.label, {}) or \
                         metric not in over_runs[prot.name].get(m.label, {}):
                     continue
-                a = _over_runs(docs, prot.twin_of, runs, m.label, metric)
-                b = _over_runs(docs, prot.name, runs, m.label, metric)
+                have = [r for r in runs if _computed(docs, prot.twin_of, r, m.label, metric)
+                        and _computed(docs, prot.name, r, m.label, metric)]
+                if not have:
+                    continue
+                a = _over_runs(docs, prot.twin_of, have, m.label, metric)
+                b = _over_runs(docs, prot.name, have, m.label, metric)
                 pair = S.paired_difference(a, b, better="lower").as_dict()
                 if metric in _SIGNED:    # worse: further from 0
                     size = S.paired_difference(np.abs(a), np.abs(b), better="lower").as_dict()
                     pair["second_better"] = size["second_better"]
                 lab_cost.append({"protocol": prot.twin_of, "ideal": prot.name,
-                                 "method": m.label, "metric": metric, "runs": runs,
+                                 "method": m.label, "metric": metric, "runs": have,
                                  "lab": S.summarize(a).as_dict(),
                                  "truth": S.summarize(b).as_dict(), "paired": pair})
 
@@ -576,6 +580,8 @@ def summary_digest(mc: dict) -> str:
     determinism law: serial, process pool and Dask must agree)."""
     keep = {k: mc.get(k) for k in ("replicates", "summary", "over_runs", "seed_spread",
                                    "claims", "rankings", "series", "start_series")}
+    if mc.get("lab_cost"):     # only where there is one: earlier digests stay the same
+        keep["lab_cost"] = mc["lab_cost"]
     return hashlib.sha256(json.dumps(_clean(keep), sort_keys=True).encode()).hexdigest()
 
 

@@ -11,6 +11,7 @@ compensator of the error model can beat without also filtering the signal). A me
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import time
@@ -535,6 +536,9 @@ def _metrics_doc(sc, plan, data, scored, fits, wall) -> dict:
         prots[prot.name] = {
             "in_sample": prot.in_sample, "description": prot.description,
             "per_run": prot.per_run, "smooth_s": prot.smooth_s, "skip_s": prot.skip_s,
+            "reference": prot.reference, **({"ideal_of": prot.twin_of} if prot.twin_of else {}),
+            **({"lab": dataclasses.asdict(plan.lab)} if prot.reference == "lab" and plan.lab
+               else {}),
             "runs": runs,
             "fits": {k: [{kk: vv for kk, vv in r.items() if kk not in ("traceback",)}
                          for r in v] for k, v in fits[prot.name].items()},

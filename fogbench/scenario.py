@@ -1087,6 +1087,10 @@ def load_plan(sc: Scenario) -> Plan:
         protocols.append(prot)
     # every protocol fitted on the lab's references is also run on the truth (the ideal lab),
     # beside it, named <name>.ideal: the paired difference is what the lab's references cost
+    for p in protocols:
+        if p.reference == "lab" and name_problem(f"{p.name}.ideal"):
+            raise extra.err("protocols", f"protocol {p.name!r} has reference = \"lab\": its twin "
+                            f"'{p.name}.ideal' must also be a name: {name_problem(p.name + '.ideal')}")
     protocols += [replace(p, name=f"{p.name}.ideal", reference="truth", twin_of=p.name,
                           description=f"{p.description} (ideal lab: fitted on the truth)".strip())
                   for p in protocols if p.reference == "lab"]
@@ -1228,6 +1232,9 @@ def _lab_knowledge(t: _Table):
         encoder_resolution=t.get("encoder_resolution_arcsec", "float", 0.0, lo=0.0,
                                  hi=3600.0) * arcsec,
         rate_source=t.get("rate_source", "str", "command", choices={"command", "encoder"}))
+    if lab.encoder_resolution and lab.rate_source != "encoder":
+        raise t.err("encoder_resolution_arcsec", "applies only with rate_source = \"encoder\" "
+                    "(the commanded rate has no encoder steps)")
     t.done()
     return lab
 

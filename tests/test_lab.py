@@ -238,6 +238,11 @@ def test_the_runner_hands_the_fit_the_labs_reference_and_scores_on_the_truth(tmp
     assert bias["lab"] - bias["ideal"] == pytest.approx(expect, abs=1e-4)
     mean_err = {s.protocol: s.metrics["model_lstsq"]["mean_error_dph"] for s in res.scored}
     assert mean_err["ideal"] - mean_err["lab"] == pytest.approx(expect, abs=1e-4)
+    # metrics.json says which reference each protocol was fitted on, and the lab's beliefs
+    doc = res.metrics["protocols"]
+    assert doc["lab"]["reference"] == "lab" and doc["ideal"]["reference"] == "truth"
+    assert doc["lab"]["lab"]["heading_error"] == pytest.approx(math.radians(1.0))
+    assert doc["lab.ideal"]["ideal_of"] == "lab"
 
 
 def test_lab_keys_without_a_lab_protocol_are_refused(tmp_path):
@@ -252,6 +257,11 @@ def test_lab_keys_without_a_lab_protocol_are_refused(tmp_path):
         load_plan(load_scenario(path, extra_sections=RUNNER_SECTIONS))
     path.write_text(LAB_SCENARIO.replace('reference = "lab"', 'reference = "encoder"'))
     with pytest.raises(ScenarioError, match="reference"):
+        load_plan(load_scenario(path, extra_sections=RUNNER_SECTIONS))
+    # an encoder resolution with the commanded rate would change nothing: refused
+    path.write_text(LAB_SCENARIO.replace("heading_error_deg = 1.0", "heading_error_deg = 1.0\n"
+                                         "encoder_resolution_arcsec = 1.0"))
+    with pytest.raises(ScenarioError, match="encoder_resolution_arcsec.*rate_source"):
         load_plan(load_scenario(path, extra_sections=RUNNER_SECTIONS))
 
 
@@ -306,11 +316,15 @@ def test_the_bundled_lab_scenario_books_the_heading_error_as_bias_as_computed_by
                            / "lab_references.toml"))
     rd = res.data["switch_on_1"]
     dwell = rd.truth.t > rd.truth.t[-1] - 1100.0
-    assert np.allclose(np.abs(np.sin(rd.truth.turn[dwell])), 1.0, atol=1e-6)
+    # turntable at +90 deg: the sensor's x along world y, which is west (heading 0: world x
+    # north, y at psi - 90 deg, sim/earth.py)
+    assert np.allclose(np.sin(rd.truth.turn[dwell]), 1.0, atol=1e-6)
     assert np.allclose(rd.truth.tilt[dwell], 0.0, atol=1e-4)
     fits = {p: [f["coefficients"]["bias_dph"] for f in res.fits[p]["bias_lstsq"]]
             for p in ("bias_lab", "bias_lab.ideal")}
     expect = OMEGA * math.cos(LAT) * math.sin(math.radians(1.0)) / DPH
+    # believed heading +1 deg: the believed Earth rate has a world-y (west) component
+    # +Omega cos L sin 1 deg, so the lab's reference on x is that much high and the bias it
+    # books (output minus reference) that much low
     for lab, ideal in zip(fits["bias_lab"], fits["bias_lab.ideal"]):
-        assert lab - ideal == pytest.approx(-expect, rel=0.01) or \
-            lab - ideal == pytest.approx(expect, rel=0.01), (lab, ideal, expect)
+        assert lab - ideal == pytest.approx(-expect, rel=0.01), (lab, ideal, expect)

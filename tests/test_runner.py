@@ -264,9 +264,9 @@ def _suite_holds_its_bounds(out, only_ci: bool):
 
 
 def test_the_ci_scenarios_hold_their_bounds_over_two_replicates(tmp_path):
-    """What `make test` runs of the real suite: the scenarios marked `ci = true` (six of nine,
-    about a minute and a half here; paper002, paper004 and static_allan, whose replicates take
-    15 to 60 s each, only in the test below)."""
+    """What `make test` runs of the real suite: the scenarios marked `ci = true` (six of ten,
+    about a minute and a half here; paper002, paper004, static_allan and lab_references, whose
+    replicates take 10 to 70 s each, only in the test below)."""
     names = _suite_holds_its_bounds(tmp_path / "reports", only_ci=True)
     assert len(names) >= 6, names
 

@@ -92,24 +92,23 @@ def _smooth(x: np.ndarray, k: int) -> np.ndarray:
     return x[:n].reshape((n // k, k) + x.shape[1:]).mean(axis=1)
 
 
-def make_piece(rd: RunData, sel: Selection, prot: Protocol, axis_j: int, table=None,
-               lab=None) -> Piece:
+def make_piece(rd: RunData, sel: Selection, prot: Protocol, axis_j: int,
+               lab_ref: tuple | None = None) -> Piece:
     """The samples of one run that ``sel`` picks: selection, then smoothing (when the protocol
     smooths, in blocks that never straddle a gap), then the stride (over the smoothed samples).
 
     With the protocol's ``reference = "lab"`` the reference rate and the specific force a method
-    is handed are the lab's (``sim.lab.lab_reference`` from the commands, the table config
-    ``table`` and the lab's beliefs ``lab``); the truth stays for scoring."""
+    is handed are the lab's, ``lab_ref`` = (rate, specific force) of the whole run from
+    ``sim.lab.lab_reference``; the truth stays for scoring."""
     plain = replace(sel, stride=1, offset=0)
     idx = select_indices(plain, rd.run, rd.fs, prot.skip_s, rd.truth.table_rate)
     truth = rd.truth_axis(axis_j)
     ref, g = truth, rd.truth.specific_force
     if prot.reference == "lab":
-        from sim.lab import LabKnowledge, lab_reference
-
-        if table is None:
-            raise ValueError(f"protocol {prot.name!r}: reference = 'lab' needs the table config")
-        rate_lab, g = lab_reference(rd.truth, table, lab or LabKnowledge())
+        if lab_ref is None:
+            raise ValueError(f"protocol {prot.name!r}: reference = 'lab' needs the lab's "
+                             "reference of the run")
+        rate_lab, g = lab_ref
         ref = rate_lab[:, "xyz".index(rd.axes[axis_j])]
     det = sum((rd.fog.terms[k][:, axis_j] for k in DETERMINISTIC if k in rd.fog.terms),
               np.zeros(rd.n))
@@ -264,14 +263,21 @@ def run_scenario(path, progress=None, methods: list[str] | None = None, replicat
                                       truth=cached)
         truths[run.name] = data[run.name].truth
 
+    # the lab's references of every run, once (protocols with reference = "lab")
+    lab_refs = {}
+    if any(p.reference == "lab" for p in plan.protocols):
+        from sim.lab import LabKnowledge, lab_reference
+
+        lab_refs = {name: lab_reference(rd.truth, sc.table, plan.lab or LabKnowledge())
+                    for name, rd in data.items()}
     scored: list[Scored] = []
     fits: dict = {}
     for prot in plan.protocols:
         fits[prot.name] = {m.label: [] for m in plan.methods}
         for fit_sel, score_sel in expand(prot, sc):
-            fit_piece = concat([make_piece(data[s.run], s, prot, axis_j, sc.table, plan.lab)
+            fit_piece = concat([make_piece(data[s.run], s, prot, axis_j, lab_refs.get(s.run))
                                 for s in fit_sel])
-            pieces = [make_piece(data[s.run], s, prot, axis_j, sc.table, plan.lab)
+            pieces = [make_piece(data[s.run], s, prot, axis_j, lab_refs.get(s.run))
                       for s in score_sel]
             items = [Scored(prot.name, p.run, p) for p in pieces]
             for it in items:

@@ -31,11 +31,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fogcomp.units import G0
+
 from . import earth
 
 __all__ = ["LabKnowledge", "lab_reference", "commanded_angles"]
-
-G0 = 9.80665
 
 
 @dataclass(frozen=True)
@@ -117,10 +117,7 @@ def lab_reference(truth, cfg, lab: LabKnowledge = LabKnowledge()):
     r = cfg.radius + lab.radius_error
     if r:
         # the mean angular acceleration over each sample: the command's change across it
-        first = truth.turn_rate_cmd_first
-        if first is None:                   # a Truth made before that field: the means' change
-            first = np.concatenate([turn_rate[:1], 0.5 * (turn_rate[1:] + turn_rate[:-1])])
-        first = np.asarray(first, dtype=float)
+        first = np.asarray(truth.turn_rate_cmd_first, dtype=float)
         alpha = np.diff(first, append=first[-1:]) * fs
         f[:, 0] += -turn_rate ** 2 * r / G0
         f[:, 1] += alpha * r / G0

@@ -1,9 +1,11 @@
 """The MuJoCo two-axis rate table (``rate_table.xml`` beside this file) and its truth.
 
 The table is driven open-loop by servo commands built from a motion program (``sim.motion``) and
-rolled out with ``mujoco.rollout`` in C. Truth at the FOG is what MuJoCo's ``gyro`` and
-``accelerometer`` sensors at the FOG site read, averaged over each FOG sample interval (a FOG
-outputs angle increments), plus the Earth's rate added analytically (``sim.earth``), averaged over
+rolled out with ``mujoco.rollout`` in C. Truth at the FOG is what MuJoCo's ``gyro`` at the FOG
+site reads and the specific force from the site's velocity differenced over each physics step
+(``_Roller._specific_force``: MuJoCo's ``accelerometer`` reads the explicit joint acceleration,
+wrong under ``implicitfast`` while the turntable accelerates), each averaged over the FOG sample
+interval (a FOG outputs angle increments), plus the Earth's rate added analytically (``sim.earth``), averaged over
 the sample in the same way: the world-fixed Earth rate is projected on the sensor axes at every
 physics step (through the mean over the sample of the rotation matrix, which is linear in the
 products of the quaternion's components) and averaged, so a sensor axis that turns 60 deg within
@@ -37,7 +39,7 @@ MODEL_PATH = Path(__file__).with_name("rate_table.xml")
 
 # sensor layout (name -> slice in sensordata), fixed by rate_table.xml; checked at load
 _SENSORS = {
-    "fog_gyro": 3, "fog_accel": 3, "fog_quat": 4, "fog_pos": 3, "tilt_angle": 1,
+    "fog_gyro": 3, "fog_linvel": 3, "fog_quat": 4, "fog_pos": 3, "tilt_angle": 1,
     "tilt_rate": 1, "turn_angle": 1, "turn_rate": 1, "tilt_quat": 4, "turntable_quat": 4,
 }
 SETTLE_RATE_TOL = 1e-9  # rad/s
@@ -181,8 +183,10 @@ class _Roller:
 
     CHUNK_SAMPLES = 20_000
 
-    def __init__(self, model, k: int, quat: slice):
-        self.model, self.k, self.quat = model, k, quat
+    def __init__(self, model, k: int, quat: slice, linvel: slice):
+        self.model, self.k, self.quat, self.linvel = model, k, quat, linvel
+        self.fmeans: list[np.ndarray] = []  # per sample: mean specific force, sensor axes, m/s^2
+        self.scratch = mujoco.MjData(model)
         self.qq: list[np.ndarray] = []  # per sample: mean over its steps of q_i q_j, (4, 4)
         self.data = mujoco.MjData(model)
         self.nstate = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_FULLPHYSICS)
@@ -221,6 +225,7 @@ class _Roller:
             self.firsts.append(sd[:, 0].copy())
             q = sd[:, :, self.quat]
             self.qq.append(np.einsum("nki,nkj->nij", q, q) / k)
+            self.fmeans.append(self._specific_force(sd.reshape(ns * k, -1), st[0, -1]))
             cc = c[:, [0, 2]].reshape(ns, k, -1)
             self.ctrl_means.append(cc.mean(axis=1))
             self.ctrl_firsts.append(cc[:, 0].copy())
@@ -230,16 +235,41 @@ class _Roller:
         self.steps += n
         return vmax
 
+    def _specific_force(self, sd: np.ndarray, final_state: np.ndarray) -> np.ndarray:
+        """Mean specific force over each sample of the chunk's steps, in sensor axes, m/s^2.
+
+        The site's world velocity differenced over each physics step, (v[j+1] - v[j]) / dt, is
+        the acceleration the integrator gave it (the step after the chunk's last comes from its
+        final state); minus gravity, rotated into the sensor axes at the step's midpoint
+        orientation (the normalised mean of the two quaternions), then averaged over each
+        sample. MuJoCo's own accelerometer is not used: it reads the explicit joint
+        acceleration, which under ``implicitfast`` and the stiff rate servo is not the one the
+        table has (0.50 g tangential where alpha r is 0.036 g at 200 deg/s^2 and 0.1 m).
+        """
+        mujoco.mj_setState(self.model, self.scratch, final_state,
+                           mujoco.mjtState.mjSTATE_FULLPHYSICS)
+        mujoco.mj_forward(self.model, self.scratch)
+        end = self.scratch.sensordata
+        v = np.vstack([sd[:, self.linvel], end[self.linvel][None]])
+        q = np.vstack([sd[:, self.quat], end[self.quat][None]])
+        q1 = q[1:] * np.where(np.sum(q[1:] * q[:-1], axis=1) < 0, -1.0, 1.0)[:, None]
+        qm = q[:-1] + q1
+        qm /= np.linalg.norm(qm, axis=1)[:, None]
+        f_world = np.diff(v, axis=0) / self.model.opt.timestep - self.model.opt.gravity
+        f = _quat_rotate_inv(qm, f_world)
+        return f.reshape(-1, self.k, 3).mean(axis=1)
+
     def repeat_last(self, ns: int, dt_total: float):
         """Continue the settled state for ``ns`` more samples (time advances, nothing moves)."""
-        for lst in (self.means, self.firsts, self.ctrl_means, self.ctrl_firsts, self.qq):
+        for lst in (self.means, self.firsts, self.ctrl_means, self.ctrl_firsts, self.qq,
+                    self.fmeans):
             lst.append(np.repeat(lst[-1][-1:], ns, axis=0))
         self.state[0] += dt_total
 
     def collect(self):
         return (np.concatenate(self.means), np.concatenate(self.firsts),
                 np.concatenate(self.ctrl_means), np.concatenate(self.ctrl_firsts),
-                np.concatenate(self.qq))
+                np.concatenate(self.qq), np.concatenate(self.fmeans))
 
 
 def _mean_rotation(qq: np.ndarray) -> np.ndarray:
@@ -270,7 +300,7 @@ def simulate_truth(segments, fs: float, cfg: TableConfig = TableConfig(), tilt0:
     k, dt = substeps_for(fs, cfg.physics_dt)
     model = load_model(cfg, dt)
     sl = _sensor_slices(model)
-    roller = _Roller(model, k, sl["fog_quat"])
+    roller = _Roller(model, k, sl["fog_quat"], sl["fog_linvel"])
     roller.set_tilt(tilt0)
     settle_samples = max(1, int(round(cfg.settle_time * fs)))
     total = sum(seg.duration for seg in segments)
@@ -303,7 +333,7 @@ def simulate_truth(segments, fs: float, cfg: TableConfig = TableConfig(), tilt0:
         if progress is not None:
             progress(done / total)
 
-    means, firsts, cmean, cfirst, qq = roller.collect()
+    means, firsts, cmean, cfirst, qq, fmean = roller.collect()
     ns = means.shape[0]
     table_rate = means[:, sl["fog_gyro"]]
     fog_quat = firsts[:, sl["fog_quat"]]
@@ -316,7 +346,7 @@ def simulate_truth(segments, fs: float, cfg: TableConfig = TableConfig(), tilt0:
         rate += np.einsum("nji,j->ni", R_mean, w_world)
     return Truth(
         t=np.arange(ns) / fs, fs=fs, rate=rate, table_rate=table_rate,
-        specific_force=means[:, sl["fog_accel"]] / G0, gravity=gravity,
+        specific_force=fmean / G0, gravity=gravity,
         tilt=firsts[:, sl["tilt_angle"]][:, 0], turn=firsts[:, sl["turn_angle"]][:, 0],
         tilt_rate=means[:, sl["tilt_rate"]][:, 0], turn_rate=means[:, sl["turn_rate"]][:, 0],
         tilt_cmd=cfirst[:, 0], turn_rate_cmd=cmean[:, 1],

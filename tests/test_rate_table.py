@@ -70,6 +70,25 @@ def test_centripetal_specific_force_of_an_off_axis_fog():
     np.testing.assert_allclose(f[:, 2], 1.0, atol=1e-4)
 
 
+def test_tangential_specific_force_while_the_turntable_accelerates_is_alpha_r():
+    """Spin-up at the table's acceleration limit alpha: the FOG r off the axis feels alpha r
+    along the turntable's tangent (+y for a positive turn with the FOG on +x) and omega^2 r
+    inward, omega the table's rate at that sample; after the spin-up the tangential term is 0.
+    (MuJoCo's accelerometer read 0.50 g here instead of 0.036 g: the explicit joint
+    acceleration under implicitfast.)"""
+    r, alpha = 0.1, math.radians(200.0)
+    cfg = TableConfig(earth_rate=False, radius=r, turn_accel=alpha)
+    tr = simulate_truth([Hold(1.0), ConstantRate(5.0, math.radians(300.0))], 100.0, cfg)
+    ramp = slice(110, 240)   # 1.1 s to 2.4 s: the rate ramps to 300 deg/s in 1.5 s
+    np.testing.assert_allclose(tr.specific_force[ramp, 1], alpha * r / 9.80665, rtol=2e-3)
+    # to 3e-4 g: the rate is sampled at the physics steps, the differenced velocity between
+    # them, half a step apart: alpha dt omega r = 1.5e-4 g at the ramp's end (dt = 1 ms)
+    w = tr.turn_rate[ramp]
+    np.testing.assert_allclose(tr.specific_force[ramp, 0], -w * w * r / 9.80665, atol=3e-4)
+    np.testing.assert_allclose(tr.specific_force[ramp, 2], 1.0, atol=1e-4)
+    np.testing.assert_allclose(tr.specific_force[350:, 1], 0.0, atol=2e-4)
+
+
 @pytest.mark.parametrize("lat_deg,heading_deg", [(45.0, 0.0), (30.0, 90.0), (-60.0, 210.0)])
 def test_earth_rate_is_added_for_latitude_and_heading(lat_deg, heading_deg):
     lat, psi = math.radians(lat_deg), math.radians(heading_deg)

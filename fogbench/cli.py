@@ -347,6 +347,11 @@ def _mc_flags(p) -> None:
                    help="add this method (a built-in, an entry-point plug-in or module:Class; "
                    "its defaults) to every scenario's [[methods]] (repeatable); it is written "
                    "into the run folder's scenario.toml")
+    p.add_argument("--reference", choices=("truth", "lab"), default=None,
+                   help="lab: fit every protocol that does not name its reference on the lab's "
+                   "references (the table's commands, the nominal Earth rate), each beside its "
+                   "ideal-lab twin <name>.ideal fitted on the truth; written into the run "
+                   "folder's scenario.toml (default: each file's own, truth when unsaid)")
 
 
 def _cmd_check_method(args) -> int:
@@ -469,11 +474,13 @@ def _method_environment(args) -> dict:
     worker processes see them too); a --with-method name that is unknown is refused here."""
     import fogcomp
 
-    from .scenario import FIT_TIMEOUT_ENV, WITH_METHODS_ENV
+    from .scenario import FIT_TIMEOUT_ENV, REFERENCE_ENV, WITH_METHODS_ENV
 
     env = {}
     if getattr(args, "fit_timeout_s", None) is not None:
         env[FIT_TIMEOUT_ENV] = repr(args.fit_timeout_s)
+    if getattr(args, "reference", None) == "lab":
+        env[REFERENCE_ENV] = "lab"
     names = getattr(args, "with_method", None) or []
     for n in names:
         try:

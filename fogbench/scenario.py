@@ -666,6 +666,15 @@ def load_scenario(path: str | Path, extra_sections: tuple[str, ...] = (),
         doc["methods"].extend({"name": n} for n in added)
         text = text + "\n# --with-method: methods added to the file's\n" + "".join(
             f"[[methods]]\nname = {json.dumps(n)}\n" for n in added)
+    if reference_override() == "lab" and isinstance(doc.get("protocols"), list):
+        # --reference lab: every protocol that does not say its reference is fitted on the
+        # lab's, beside its ideal-lab twin; part of the text, like --with-method
+        set_ = [p for p in doc["protocols"] if isinstance(p, dict) and "reference" not in p]
+        for p in set_:
+            p["reference"] = "lab"
+        if set_:
+            text = text + ("\n# --reference lab: reference = \"lab\" set in protocols "
+                           + ", ".join(json.dumps(str(p.get("name"))) for p in set_) + "\n")
     top = _Table(doc, "top level", file)
     sc = _Table(top.get("scenario", "table"), "[scenario]", file)
     name = sc.get("name", "name")
@@ -871,10 +880,15 @@ FIT_TIMEOUT_ENV = "FOGBENCH_FIT_TIMEOUT_S"
 #: to every scenario that has [[methods]] (unless it names them already), with their defaults.
 WITH_METHODS_ENV = "FOGBENCH_WITH_METHODS"
 
+#: The environment variable ``--reference`` sets: "lab" fits every protocol that does not name
+#: its reference on the lab's references (each beside its ideal-lab twin, <name>.ideal).
+REFERENCE_ENV = "FOGBENCH_REFERENCE"
+_ENV_KEYS = (FIT_TIMEOUT_ENV, WITH_METHODS_ENV, REFERENCE_ENV)
+
 
 def method_environment() -> dict:
-    """The environment variables --with-method and --fit-timeout-s set in this process."""
-    return {k: os.environ[k] for k in (FIT_TIMEOUT_ENV, WITH_METHODS_ENV) if os.environ.get(k)}
+    """The environment variables --with-method, --fit-timeout-s and --reference set here."""
+    return {k: os.environ[k] for k in _ENV_KEYS if os.environ.get(k)}
 
 
 @contextlib.contextmanager
@@ -882,7 +896,7 @@ def method_environment_set(env: dict):
     """Exactly ``env`` for those variables while the code inside runs (a replicate on a
     forkserver or Dask worker, which has its own environment; a command's flags), then what was
     there before."""
-    keys = (FIT_TIMEOUT_ENV, WITH_METHODS_ENV)
+    keys = _ENV_KEYS
     before = {k: os.environ.get(k) for k in keys}
     for k in keys:
         if env.get(k):
@@ -897,6 +911,11 @@ def method_environment_set(env: dict):
                 os.environ.pop(k, None)
             else:
                 os.environ[k] = v
+
+
+def reference_override() -> str | None:
+    """``--reference``'s value ("lab" or "truth"), None when not given (``REFERENCE_ENV``)."""
+    return os.environ.get(REFERENCE_ENV) or None
 
 
 def with_methods() -> list[str]:

@@ -328,3 +328,30 @@ def test_the_bundled_lab_scenario_books_the_heading_error_as_bias_as_computed_by
     # books (output minus reference) that much low
     for lab, ideal in zip(fits["bias_lab"], fits["bias_lab.ideal"]):
         assert lab - ideal == pytest.approx(-expect, rel=0.01), (lab, ideal, expect)
+
+
+def test_reference_lab_on_the_command_line_fits_every_protocol_on_the_labs_references(tmp_path):
+    """`fogbench run --reference lab` on a file whose protocols do not say their reference: each
+    is fitted on the lab's (with the file's [lab] beliefs), beside its ideal twin, and the
+    bias of the lab fit moves by the hand-computed heading term; the run folder's scenario.toml
+    says so. Without the flag the same file is refused ([lab] with no lab protocol)."""
+    import json
+
+    from fogbench.cli import main
+    from fogcomp.units import DPH
+
+    path = tmp_path / "lab.toml"
+    path.write_text(LAB_SCENARIO.replace('reference = "lab"\n', ""))
+    assert main(["run", str(path), "--out", str(tmp_path / "plain"), "--quiet",
+                 "--no-recording"]) == 2
+    out = tmp_path / "run"
+    assert main(["run", str(path), "--out", str(out), "--quiet", "--no-recording",
+                 "--reference", "lab", "--replicates", "1"]) == 0
+    doc = json.loads((out / "metrics.json").read_text())
+    prot = doc["protocols"]
+    assert {n: prot[n]["reference"] for n in ("lab", "ideal", "lab.ideal", "ideal.ideal")} == {
+        "lab": "lab", "ideal": "lab", "lab.ideal": "truth", "ideal.ideal": "truth"}
+    assert "--reference lab" in (out / "scenario.toml").read_text()
+    err = {n: prot[n]["runs"]["b"]["model_lstsq"]["mean_error_dph"] for n in prot}
+    expect = OMEGA * math.cos(LAT) * math.sin(math.radians(1.0)) / DPH
+    assert err["lab.ideal"] - err["lab"] == pytest.approx(expect, abs=1e-4)

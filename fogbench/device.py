@@ -41,8 +41,8 @@ import numpy as np
 
 from fogcomp.units import ARCSEC, DEG_RT_H, DPH, DPH_PER_H, DPH_RT_H, DPS
 
-from .reallog import (MIN_RECORD_SAMPLES, LogError, _common, _curve_record, reference_unit,
-                      _fmt_number, _Outputs, _warnings_as_lines, read_curve, read_log)
+from .reallog import (MIN_RECORD_SAMPLES, LogError, _common, _curve_record, _source,
+                      reference_unit, _fmt_number, _Outputs, _warnings_as_lines, read_curve, read_log)
 
 __all__ = ["MARKER", "preset_text", "DeviceFit", "fit_device", "twin_curves", "check_device",
            "add_commands"]
@@ -638,7 +638,7 @@ def _channel(log, axis: str | None, path) -> str:
 
 def _read_static(path, args) -> tuple[StaticLog, object]:
     chans = [f"gyro_{args.axis}"] if args.axis else ["gyro_*"]
-    log = read_log(path, mapping=args.column, channels=chans, fs=args.fs, gaps=args.gaps,
+    log = read_log(path, **_source(args), mapping=args.column, channels=chans, fs=args.fs, gaps=args.gaps,
                    time_tolerance=args.time_tolerance, min_samples=MIN_RECORD_SAMPLES)
     ch = _channel(log, args.axis, path)
     if log.units[ch] == "au":
@@ -655,7 +655,7 @@ def _read_thermal(path, args):
     from .device_thermal import ThermalLog
 
     chans = [f"gyro_{args.axis}" if args.axis else "gyro_*", "temp"]
-    log = read_log(path, mapping=args.column, channels=chans, fs=args.fs, gaps="refuse",
+    log = read_log(path, **_source(args), mapping=args.column, channels=chans, fs=args.fs, gaps="refuse",
                    time_tolerance=args.time_tolerance, min_samples=MIN_RECORD_SAMPLES)
     ch = _channel(log, args.axis, path)
     if log.units[ch] == "au":
@@ -680,7 +680,7 @@ def _read_multipos(path, args):
 
     _check_reference_flag(args.reference)
     chans = [f"gyro_{args.axis}" if args.axis else "gyro_*", "acc_x", "acc_y", "acc_z"]
-    log = read_log(path, mapping=args.column, channels=chans, fs=args.fs, gaps="refuse",
+    log = read_log(path, **_source(args), mapping=args.column, channels=chans, fs=args.fs, gaps="refuse",
                    time_tolerance=args.time_tolerance, min_samples=MIN_RECORD_SAMPLES)
     ch = _channel(log, args.axis, path)
     for c in [ch] + [f"acc_{a}" for a in "xyz"]:
@@ -944,17 +944,74 @@ def _cmd_schema(args) -> int:
 
 def _cmd_show(args) -> int:
     p = Path(args.name)
-    if p.suffix == ".toml" or p.exists():
+    is_file = p.suffix == ".toml" or p.exists()
+    files = _noise_file_targets(args)
+    if is_file:
         from .scenario import ScenarioError, load_device_file
 
         try:
-            load_device_file(p)
+            doc = load_device_file(p)
         except ScenarioError as exc:
             raise LogError(str(exc)) from None
-        sys.stdout.write(p.read_text(encoding="utf-8-sig"))
+        text = p.read_text(encoding="utf-8-sig")
+    else:
+        text = preset_text(args.name)
+        doc = {"preset": args.name}
+    if not files:
+        sys.stdout.write(text)
         return 0
-    sys.stdout.write(preset_text(args.name))
+    _write_noise_files(files, args, doc, str(args.name))
     return 0
+
+
+def _noise_file_targets(args) -> list:
+    """--kalibr / --openvins of ``device show``: checked before any work; needs --rate-hz."""
+    from .reallog import _Outputs, _tool_targets
+
+    if not (args.kalibr or args.openvins):
+        if args.rate_hz is not None:
+            raise LogError("--rate-hz: only with --kalibr or --openvins (the update_rate "
+                           "written there)")
+        return []
+    if args.rate_hz is None or not (math.isfinite(args.rate_hz) and args.rate_hz > 0):
+        raise LogError("--kalibr/--openvins: give --rate-hz, the rate your IMU runs at (Kalibr's "
+                       "update_rate; a device file has no sample rate)")
+    args.log = args.curve = None
+    args._outputs = _Outputs(getattr(args, "overwrite", False), "device show")
+    return _tool_targets(args._outputs, args)
+
+
+def _write_noise_files(files, args, doc: dict, source: str) -> None:
+    """The device's white rate noise (arw) and rate random walk (rrw), SI from the validated
+    [fog] keys, as Kalibr's gyroscope entries; the accelerometer entries left to fill in (a
+    device file describes a gyro)."""
+    from .kalibr import TEXTS, NoiseValue
+    from .scenario import ScenarioError, _fog, _Table
+
+    try:
+        params = _fog(_Table(dict(doc), "device file", source), args.rate_hz)[0]
+    except ScenarioError as exc:
+        raise LogError(str(exc)) from None
+    values = {}
+    for term, attr, key in (("N", "arw", "arw_deg_rt_h"), ("K", "rrw", "rrw_dph_rt_h")):
+        v = float(getattr(params, attr))
+        values["gyroscope", term] = (NoiseValue(v, f"the device's {key}", "the gyro", {})
+                                     if v > 0 else f"the device has no {key} (0); fill it in")
+    for term in ("N", "K"):
+        values["accelerometer", term] = ("a device file describes a gyro, not an "
+                                         "accelerometer; fill it in")
+    out = args._outputs
+    try:
+        for kind, path in files:
+            out.write_text(path, TEXTS[kind](values, args.rate_hz, source, topic=args.imu_topic,
+                                             inflate_density=args.inflate_density,
+                                             inflate_walk=args.inflate_walk,
+                                             command="device show"))
+        out.commit()
+    finally:
+        out.discard()
+    for _, path in files:
+        print(f"wrote {path} (gyroscope entries; fill in the accelerometer_* keys)")
 
 
 def add_commands(subparsers) -> None:
@@ -965,6 +1022,19 @@ def add_commands(subparsers) -> None:
     s = sub.add_parser("show", help="print a preset (or a device file, validated) as a device "
                        "file")
     s.add_argument("name", help="a preset of sim/presets.toml, or a device file")
+    s.add_argument("--kalibr", metavar="IMU.yaml", help="write the device's noise as Kalibr's "
+                   "imu.yaml instead (gyroscope noise density and random walk, SI)")
+    s.add_argument("--openvins", metavar="kalibr_imu_chain.yaml", help="the same as OpenVINS' "
+                   "kalibr_imu_chain.yaml")
+    s.add_argument("--rate-hz", type=float, help="with --kalibr/--openvins: the IMU's rate, "
+                   "Hz (update_rate)")
+    s.add_argument("--imu-topic", default="/imu0", help="rostopic written (default /imu0)")
+    s.add_argument("--inflate-density", type=float, default=1.0, help="multiply the noise "
+                   "density by this factor (default 1; stated in the file)")
+    s.add_argument("--inflate-walk", type=float, default=1.0, help="multiply the random walk "
+                   "by this factor (default 1; stated in the file)")
+    s.add_argument("--overwrite", action="store_true", help="replace a file an earlier "
+                   "--kalibr/--openvins wrote (nothing else)")
     s.set_defaults(func=_warnings_as_lines(_cmd_show))
     j = sub.add_parser("schema", help="print the JSON Schema of a device file (the [fog] keys), "
                        "for an editor to complete and check them")

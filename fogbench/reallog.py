@@ -30,6 +30,9 @@ from pathlib import Path
 
 import numpy as np
 
+from .logformats import Rows
+from .logformats.euroc import bracketed_column, commented_header
+
 __all__ = ["LogError", "Log", "read_log", "read_curve", "add_commands", "GYRO_UNITS",
            "ACC_UNITS", "MIN_RECORD_SAMPLES"]
 
@@ -42,7 +45,7 @@ GYRO_UNITS = {"dps": DEG, "deg_s": DEG, "rps": 1.0, "rad_s": 1.0, "dph": DEG / 3
               "au": None}
 #: Accelerometer unit suffixes and their factor to m/s^2.
 ACC_UNITS = {"g": G0, "mps2": 1.0, "au": None}
-TIME_UNITS = {"s": 1.0, "ms": 1e-3}
+TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 TEMP_UNITS = {"c": 1.0}
 _KINDS = {"gyro": GYRO_UNITS, "acc": ACC_UNITS}
 _HEADER = re.compile(r"^(gyro|acc|accel)_([xyz])(?:_(.*))?$")
@@ -79,14 +82,14 @@ _DISPLAY = {"gyro": (1.0 / DEG, "deg/s"), "acc": (1.0 / G0, "g")}
 
 
 def _check_magnitude(path, ch: str, column: str, unit: str, v: np.ndarray,
-                     first_line: int) -> None:
+                     first_line: Rows) -> None:
     """Refuse values no sensor measures in the unit the column names; warn of implausible
     ones (a unit contradicted by the values: deg/s under _rps reads 57 times too large)."""
     kind = ch.split("_")[0]
     if kind == "temp":
         i = int(np.argmin(v))
         if v[i] < -273.15:
-            raise LogError(f"{path}: line {first_line + i}, column {column!r}: "
+            raise LogError(f"{path}: {first_line(i)}, column {column!r}: "
                            f"{_fmt_number(v[i])} C is below absolute zero")
         if float(np.max(v)) > 500.0:
             warnings.warn(PlausibilityWarning(
@@ -98,14 +101,14 @@ def _check_magnitude(path, ch: str, column: str, unit: str, v: np.ndarray,
     i = int(np.argmax(np.abs(v)))
     peak = abs(float(v[i]))
     if peak > refuse:
-        raise LogError(f"{path}: line {first_line + i}, column {column!r}: "
+        raise LogError(f"{path}: {first_line(i)}, column {column!r}: "
                        f"{_fmt_number(v[i] / _unit_table(ch)[unit])} {unit} = "
                        f"{peak * scale:.3g} {shown}, which no sensor measures "
                        f"(refused beyond {refuse * scale:.0e} {shown}); check the column's unit")
     if peak > warn:
         warnings.warn(PlausibilityWarning(
-            f"{path}: column {column!r} reaches {peak * scale:.4g} {shown} (line "
-            f"{first_line + i}), beyond any {'gyro' if kind == 'gyro' else 'accelerometer'}'s "
+            f"{path}: column {column!r} reaches {peak * scale:.4g} {shown} ("
+            f"{first_line(i)}), beyond any {'gyro' if kind == 'gyro' else 'accelerometer'}'s "
             f"range ({warn * scale:g} {shown}): is its unit {unit!r} right?"))
 
 
@@ -171,6 +174,7 @@ class Log:
     units: dict
     sources: dict
     segments: list = field(default_factory=list)
+    origin: str = ""          # what in the file was read ("topic /imu0"), "" for a CSV
 
     @property
     def n(self) -> int:
@@ -181,7 +185,8 @@ class Log:
         time column in the wrong unit shows at once."""
         d = self.n / self.fs
         pieces = f" in {len(self.segments)} gap-free pieces" if len(self.segments) > 1 else ""
-        return (f"{self.path}: {self.n} samples at {self.fs:.6g} Hz (interval "
+        where = f" ({self.origin})" if self.origin else ""
+        return (f"{self.path}{where}: {self.n} samples at {self.fs:.6g} Hz (interval "
                 f"{1.0 / self.fs:.6g} s), {d:.6g} s = {d / 3600:.3g} h{pieces}")
 
 
@@ -317,6 +322,10 @@ def _read_frame(path):
         raise LogError(f"{path}: line {line}, column {col}: not UTF-8 text (byte "
                        f"0x{raw[exc.start]:02x}); save the file as UTF-8") from None
     skip = _leading_comments(raw)
+    hash_header = commented_header(raw, skip)
+    if hash_header is not None:     # EuRoC / TUM-VI: the '#' line is the header
+        raw = raw[:hash_header] + raw[hash_header + 1:]
+        skip -= 1
     try:
         # The header as written: pandas renames a repeated name 'a' to 'a.1' in the frame.
         raw_header = pd.read_csv(io.BytesIO(raw), skiprows=skip, header=None, nrows=1,
@@ -351,10 +360,10 @@ def _read_frame(path):
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
         raise LogError(f"{path}: not a readable CSV file ({str(exc).splitlines()[0]})") from None
     frame.columns = [str(c).strip() for c in frame.columns]
-    return frame, skip + 2          # line number of data row 0 = skip + 2 (1-based, header)
+    return frame, Rows(skip + 2)    # line number of data row 0 = skip + 2 (1-based, header)
 
 
-def _numeric(path, frame, column: str, first_line: int) -> np.ndarray:
+def _numeric(path, frame, column: str, first_line: Rows) -> np.ndarray:
     import pandas as pd
 
     s = frame[column]
@@ -371,7 +380,7 @@ def _numeric(path, frame, column: str, first_line: int) -> np.ndarray:
         else:
             what = f"non-finite value {_fmt_number(raw)}"
         n_bad = int(bad.sum())
-        raise LogError(f"{path}: line {first_line + i}, column {column!r}: {what}"
+        raise LogError(f"{path}: {first_line(i)}, column {column!r}: {what}"
                        + (f" ({n_bad} bad cells in this column)" if n_bad > 1 else ""))
     return values
 
@@ -379,7 +388,7 @@ def _numeric(path, frame, column: str, first_line: int) -> np.ndarray:
 def read_log(path, *, mapping=None, channels=None, fs=None, gaps: str = "refuse",
              time_tolerance: float = 0.05, min_samples: int = 2,
              fs_is_fallback: bool = False, model_mapping: dict | None = None,
-             model_file=None) -> Log:
+             model_file=None, fmt: str | None = None, topic: str | None = None) -> Log:
     """Read and validate a log (see the module docstring).
 
     Parameters
@@ -408,6 +417,10 @@ def read_log(path, *, mapping=None, channels=None, fs=None, gaps: str = "refuse"
         over it, and an error names the model file, not a ``--column`` the user did not type.
     model_file : str or Path, optional
         The model file ``model_mapping`` comes from (for messages).
+    fmt : {"csv", "euroc", "rosbag", "ulog"}, optional
+        The file's format (``--format``); None: recognised from its content.
+    topic : str, optional
+        The IMU topic of a bag or ULog (``--topic``).
 
     Returns
     -------
@@ -423,15 +436,22 @@ def read_log(path, *, mapping=None, channels=None, fs=None, gaps: str = "refuse"
                        f"{_fmt_number(fs)}")
     mapped = _parse_mapping(mapping)
     from_model = {ch: v for ch, v in (model_mapping or {}).items() if ch not in mapped}
-    frame, first_line = _read_frame(path)
+    frame, first_line, origin = _read_any(path, fmt, topic)
     if len(frame) == 0:
         raise LogError(f"{path}: no data rows")
     # Channel -> (column, unit as written); a unit is checked only for the channels used.
     found: dict[str, tuple[str, str | None]] = {}
     mapped_sources = {src for src, _ in [*mapped.values(), *from_model.values()]}
     for col in frame.columns:
-        m = _HEADER.match(col)
         if col in mapped_sources:
+            continue
+        name = bracketed_column(col) or col
+        m = _HEADER.match(name)
+        if name.startswith("time_"):
+            found["time"] = (col, name[5:].lower())
+            continue
+        if name.startswith("temp_") and name != col:
+            found["temp"] = (col, name[5:].lower())
             continue
         if m:
             kind = "acc" if m.group(1) == "accel" else m.group(1)
@@ -464,6 +484,9 @@ def read_log(path, *, mapping=None, channels=None, fs=None, gaps: str = "refuse"
                            "gyro_x=HEADER:UNIT")
         i = wanted.index("gyro_*")
         wanted[i:i + 1] = [g for g in gyros if g not in wanted]
+    if "acc_*?" in wanted:     # every accelerometer channel there is, perhaps none
+        i = wanted.index("acc_*?")
+        wanted[i:i + 1] = sorted(c for c in found if c.startswith("acc_") and c not in wanted)
     for ch in wanted:
         if ch not in found:
             raise LogError(f"{path}: missing column for {ch} (e.g. {ch}_"
@@ -485,7 +508,11 @@ def read_log(path, *, mapping=None, channels=None, fs=None, gaps: str = "refuse"
     segments = [(0, n)]
     if "time" in found:
         src, unit = found["time"]
-        t = _numeric(path, frame, src, first_line) * TIME_UNITS[unit]
+        t = _numeric(path, frame, src, first_line)
+        if frame[src].dtype.kind in "iu":   # integer stamps (EuRoC ns): from the first row,
+            # exactly (a float64 holds 1.4e18 ns only to 256 ns); messages give time since it
+            t = (frame[src].to_numpy() - frame[src].iloc[0]).astype(float)
+        t = t * TIME_UNITS[unit]
         if n < 2:
             raise LogError(f"{path}: one row only; a record needs at least {max(2, min_samples)}")
         dt = np.diff(t)
@@ -493,7 +520,7 @@ def read_log(path, *, mapping=None, channels=None, fs=None, gaps: str = "refuse"
         if bad.size:
             i = int(bad[0])
             word = "duplicated" if dt[i] == 0 else "not increasing"
-            raise LogError(f"{path}: line {first_line + i + 1}, column {src!r}: time {word} "
+            raise LogError(f"{path}: {first_line(i + 1)}, column {src!r}: time {word} "
                            f"({t[i + 1]:.10g} after {t[i]:.10g})")
         step = float(np.median(dt))
         fs_t = 1.0 / step
@@ -501,14 +528,14 @@ def read_log(path, *, mapping=None, channels=None, fs=None, gaps: str = "refuse"
         irregular = (np.abs(dt / step - 1.0) > time_tolerance) & ~gap
         if irregular.any():
             i = int(np.flatnonzero(irregular)[0])
-            raise LogError(f"{path}: line {first_line + i + 1}, column {src!r}: irregular "
+            raise LogError(f"{path}: {first_line(i + 1)}, column {src!r}: irregular "
                            f"sampling, interval {dt[i]:.6g} s vs median {step:.6g} s (more "
                            f"than {time_tolerance:.0%} off; {int(irregular.sum())} such "
                            "intervals); resample the log or raise --time-tolerance")
         if gap.any():
             i = int(np.flatnonzero(gap)[0])
             if gaps == "refuse":
-                raise LogError(f"{path}: line {first_line + i + 1}, column {src!r}: gap of "
+                raise LogError(f"{path}: {first_line(i + 1)}, column {src!r}: gap of "
                                f"{dt[i]:.6g} s ({dt[i] / step - 1:.0f} missing samples at "
                                f"{step:.6g} s) after time {t[i]:.10g}; {int(gap.sum())} gap(s) "
                                "in all; use --gaps split to analyse the pieces separately")
@@ -542,7 +569,30 @@ def read_log(path, *, mapping=None, channels=None, fs=None, gaps: str = "refuse"
                        + (" in its longest gap-free piece" if len(segments) > 1 else "")
                        + f", this command needs at least {min_samples}")
     return Log(path=str(path), frame=frame, fs=float(fs), channels=values, units=units,
-               sources=sources, segments=segments)
+               sources=sources, segments=segments, origin=origin)
+
+
+def _read_any(path, fmt: str | None, topic: str | None):
+    """(frame, Rows, origin) of a log in any format ``fogbench.logformats`` reads."""
+    from .logformats import FORMATS, detect, read_table
+
+    if fmt is not None and fmt not in FORMATS:
+        raise LogError(f"--format: expected one of {', '.join(FORMATS)}, got {fmt!r}")
+    kind = fmt or detect(path)
+    if kind in ("csv", "euroc"):
+        if topic is not None:
+            raise LogError(f"--topic {topic!r}: {path} is a CSV file; --topic chooses the IMU "
+                           "topic of a ROS bag, MCAP or ULog file")
+        frame, rows = _read_frame(path)
+        if kind == "euroc" and not any(bracketed_column(c) for c in frame.columns):
+            raise LogError(f"{path}: --format euroc: its header is not EuRoC's (e.g. "
+                           "'#timestamp [ns],w_RS_S_x [rad s^-1],...'); first line: "
+                           f"{', '.join(frame.columns)}")
+        return frame, rows, ""
+    p = Path(path)
+    if not p.exists():
+        raise LogError(f"{path}: file not found")
+    return read_table(p, kind, topic)
 
 
 def _comment_fields(path) -> dict:
@@ -606,7 +656,7 @@ def read_curve(path, ci: float | None = None, with_header: bool = False):
         rows = np.flatnonzero(sel)
         bad = np.flatnonzero((taus[sel] <= 0) | (adev[sel] <= 0))
         if bad.size:
-            raise LogError(f"{path}: line {first_line + rows[bad[0]]}: tau_s and {col} must be "
+            raise LogError(f"{path}: {first_line(rows[bad[0]])}: tau_s and {col} must be "
                            "positive")
         if sel.sum() < 3:
             raise LogError(f"{path}: axis {ax!r}: {int(sel.sum())} points; at least 3 needed")
@@ -968,6 +1018,7 @@ def _cmd_allan(args) -> int:
             raise LogError(f"{flag}: only with --curve (a log's length is its own)")
     out = _Outputs(args.overwrite, "allan")
     _allan_folder(out, args, [])            # --out: a folder, placeable, not someone else's
+    tool_files = _tool_targets(out, args)
     results = []          # (name, curve dict, model, extra json)
     summary = None
     if args.curve:
@@ -1000,11 +1051,18 @@ def _cmd_allan(args) -> int:
                 if not re.fullmatch(r"gyro_[xyz]", c):
                     raise LogError(f"--columns: {c!r} is not a gyro channel (gyro_x, gyro_y, "
                                    "gyro_z)")
-        log = read_log(args.log, mapping=args.column, channels=chans or ["gyro_*"], fs=args.fs,
-                       gaps=args.gaps, time_tolerance=args.time_tolerance,
+        log = read_log(args.log, **_source(args), mapping=args.column,
+                       channels=(chans or ["gyro_*"]) + (["acc_*?"] if tool_files else []),
+                       fs=args.fs, gaps=args.gaps, time_tolerance=args.time_tolerance,
                        min_samples=MIN_RECORD_SAMPLES)
         if chans is None:
             chans = sorted(c for c in log.channels if c.startswith("gyro_"))
+        accs = sorted(c for c in log.channels if c.startswith("acc_"))
+        for ch in accs:
+            if log.units[ch] == "au":
+                raise LogError(f"{args.log}: column {log.sources[ch]!r} is in raw counts (au); "
+                               "the Kalibr noise densities need m/s^2 or g (calibrate it "
+                               "first, e.g. fogbench calibrate ferraris)")
         for ch in chans:
             if log.units[ch] == "au":
                 raise LogError(f"{args.log}: column {log.sources[ch]!r} is in raw counts (au); "
@@ -1026,10 +1084,18 @@ def _cmd_allan(args) -> int:
             results.append((f"{ch}_{log.units[ch]}", {
                 "taus": curve.taus, "adev": curve.adev, "low": curve.low, "high": curve.high},
                 model, {"edf": curve.edf.tolist(), "noise_alpha": curve.alpha.tolist()}))
+        acc_models = {}
+        for ch in accs if tool_files else []:
+            _, acc_models[ch] = allan_analysis(log.channels[ch], log.fs, ci=ci,
+                                               segments=log.segments)
         label = f"{ci:.1%} interval (EDF)"
         meta = {"log_file": str(args.log), "fs_hz": log.fs, "n_samples": log.n,
                 "duration_s": log.n / log.fs,
                 "segments": [[a, b] for a, b in log.segments], "ci": ci}
+    if args.curve:
+        acc_models = {}
+    tool_texts = _tool_texts(tool_files, args, {n: m for n, _, m, _ in results}, acc_models,
+                             fs if args.curve else log.fs, src)
     doc = {"format": "fogbench-allan", "version": 2, **meta}
     doc["columns"] = {}
     dph = DEG / 3600.0
@@ -1046,6 +1112,8 @@ def _cmd_allan(args) -> int:
         entry["noise"] = model_json(ident)
         doc["columns"][name] = entry
     try:
+        for path, text in tool_texts:
+            out.write_text(path, text)
         if targets is not None:
             from .io import json_ready   # a fit on no degrees of freedom has no p-value: null
 
@@ -1055,7 +1123,7 @@ def _cmd_allan(args) -> int:
                 out.write(targets[f"allan_{name}.png"],
                           lambda tmp, n=name, c=curve, i=ident: _plot(
                               tmp, f"{Path(src).name}: {n}", c, i, label))
-            out.commit()
+        out.commit()
     finally:
         out.discard()
     if summary:
@@ -1068,7 +1136,41 @@ def _cmd_allan(args) -> int:
         print(line)
     if targets is not None:
         print(f"wrote {targets['allan.json']} and {len(results)} figure(s) in {args.out}")
+    for path, _ in tool_texts:
+        print(f"wrote {path}" + ("" if acc_models else " (gyroscope only: the log has no "
+                                 "accelerometer columns; fill in the accelerometer_* keys)"))
     return 0
+
+
+def _tool_targets(out: _Outputs, args) -> list:
+    """--kalibr FILE, --openvins FILE: checked before any work (never a file fogbench allan
+    did not write, never an input); [(kind, path)]."""
+    from .kalibr import check_factor, is_own
+
+    check_factor("--inflate-density", args.inflate_density)
+    check_factor("--inflate-walk", args.inflate_walk)
+    if not args.imu_topic.startswith("/") or any(c.isspace() for c in args.imu_topic):
+        raise LogError(f"--imu-topic {args.imu_topic!r}: expected a ROS topic name such as "
+                       "/imu0")
+    protect = tuple(p for p in (args.log, args.curve) if p)
+    files = []
+    for kind in ("kalibr", "openvins"):
+        p = getattr(args, kind)
+        if p:
+            files.append((kind, out.target(Path(p), protect, recognise=is_own,
+                                           what=f"{kind} file", flag=f"--{kind}")))
+    if len(files) == 2 and Path(files[0][1]).resolve() == Path(files[1][1]).resolve():
+        raise LogError("--kalibr and --openvins name the same file; give each its own")
+    return files
+
+
+def _tool_texts(files, args, gyro: dict, acc: dict, fs: float, src) -> list:
+    from .kalibr import TEXTS, values_from_models
+
+    values = values_from_models(gyro, acc or None)
+    return [(p, TEXTS[kind](values, fs, str(src), topic=args.imu_topic,
+                            inflate_density=args.inflate_density,
+                            inflate_walk=args.inflate_walk)) for kind, p in files]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -1186,7 +1288,7 @@ def _cmd_calibrate(args) -> int:
         need += ["acc_x", "acc_y", "acc_z"]
     if "temp" in cls.requires or "temp_rate" in cls.requires:
         need += ["temp"]
-    log = read_log(args.log, mapping=args.column, channels=need, fs=args.fs,
+    log = read_log(args.log, **_source(args), mapping=args.column, channels=need, fs=args.fs,
                    gaps=args.gaps, time_tolerance=args.time_tolerance,
                    min_samples=MIN_RECORD_SAMPLES)
     if header_chans is None:
@@ -1312,7 +1414,7 @@ def _calibrate_ferraris(args, out: _Outputs, manifest: Path) -> int:
         raise LogError("calibrate ferraris: give --angle-deg, the known angle of each rotation "
                        "(signed by the right-hand rule; imucal's default is -360)")
     chans = [f"{k}_{a}" for k in ("acc", "gyro") for a in "xyz"]
-    log = read_log(args.log, mapping=args.column, channels=chans, fs=args.fs,
+    log = read_log(args.log, **_source(args), mapping=args.column, channels=chans, fs=args.fs,
                    gaps="refuse", time_tolerance=args.time_tolerance, min_samples=2)
     _note(log.describe())
     if "part" not in log.frame.columns:
@@ -1629,7 +1731,7 @@ def _cmd_compensate(args) -> int:
         from_model = {ch: (cols[ch]["column"], cols[ch]["unit"]) for ch in chans if ch in cols}
         # Applying a triad calibration does not depend on the sample rate: without a time
         # column and --fs the calibration's own rate stands in (it is only reported).
-        log = read_log(args.log, mapping=args.column, channels=chans,
+        log = read_log(args.log, **_source(args), mapping=args.column, channels=chans,
                        fs=args.fs if args.fs else float(doc["fs_hz"]), fs_is_fallback=not args.fs,
                        gaps=args.gaps, time_tolerance=args.time_tolerance, min_samples=1,
                        model_mapping=from_model, model_file=mpath)
@@ -1654,7 +1756,7 @@ def _cmd_compensate(args) -> int:
             need += ["acc_x", "acc_y", "acc_z"]
         if reqs & {"temp", "temp_rate"}:
             need += ["temp"]
-        log = read_log(args.log, mapping=args.column, channels=need, fs=args.fs,
+        log = read_log(args.log, **_source(args), mapping=args.column, channels=need, fs=args.fs,
                        gaps=args.gaps, time_tolerance=args.time_tolerance, min_samples=2)
         _note(log.describe())
         if abs(log.fs / float(doc["fs_hz"]) - 1.0) > 1e-6:
@@ -1707,7 +1809,17 @@ def _cmd_compensate(args) -> int:
 
 # ---------------------------------------------------------------------------------------------
 # argparse
+def _source(args) -> dict:
+    """--format and --topic as read_log's keywords."""
+    return {"fmt": getattr(args, "format", None), "topic": getattr(args, "topic", None)}
+
+
 def _common(p) -> None:
+    p.add_argument("--format", choices=("csv", "euroc", "rosbag", "ulog"),
+                   help="the log's format (default: recognised from the file: a CSV, a "
+                   "EuRoC/TUM-VI imu0/data.csv, a ROS 1/2 bag or MCAP file, a PX4 ULog)")
+    p.add_argument("--topic", help="a bag's sensor_msgs/msg/Imu topic, or a ULog's "
+                   "sensor_gyro, sensor_gyro:1, sensor_combined (default: the only one)")
     p.add_argument("--column", action="append", metavar="CH=HEADER:UNIT",
                    help="map a file column to a channel, e.g. gyro_z=GyroZ:dps (repeatable, or "
                         "comma-separated)")
@@ -1740,6 +1852,17 @@ def add_commands(subparsers) -> None:
                    "curve came from (default: its first line's n_samples=)")
     a.add_argument("--overwrite", action="store_true", help="replace the outputs of an earlier "
                    "fogbench allan in --out (recognised by its allan.json; nothing else)")
+    a.add_argument("--kalibr", metavar="IMU.yaml", help="write Kalibr's imu.yaml: noise "
+                   "density (Allan N) and random walk (K) of the gyroscopes and, when the log "
+                   "has them, the accelerometers, SI, and update_rate")
+    a.add_argument("--openvins", metavar="kalibr_imu_chain.yaml", help="the same values as "
+                   "OpenVINS' kalibr_imu_chain.yaml")
+    a.add_argument("--imu-topic", default="/imu0", help="rostopic written in --kalibr and "
+                   "--openvins (default /imu0)")
+    a.add_argument("--inflate-density", type=float, default=1.0, help="multiply the noise "
+                   "densities written by this factor (default 1: none; stated in the file)")
+    a.add_argument("--inflate-walk", type=float, default=1.0, help="multiply the random walks "
+                   "written by this factor (default 1: none; stated in the file)")
     _common(a)
     a.set_defaults(func=_warnings_as_lines(_cmd_allan))
 

@@ -1,0 +1,71 @@
+"""The log formats ``fogbench allan``, ``calibrate``, ``compensate`` and ``device`` read, one
+module per format, each turning a file into the same table the CSV reader gives (a
+``pandas.DataFrame`` whose column names carry their units: ``time_ns``, ``gyro_x_rps``,
+``acc_x_mps2``) and a :class:`Rows` that names a row in the file's own terms (a CSV's line, a
+bag's message), so that every later check (units, magnitudes, time, gaps) is the CSV reader's
+and names the place in the file.
+
+- CSV (``fogbench.reallog``, with EuRoC / TUM-VI's ``#`` header: :mod:`.euroc`);
+- ROS 1 bags, ROS 2 bags (a folder with ``metadata.yaml``, or a ``.db3``) and MCAP files with
+  ``sensor_msgs/msg/Imu`` (:mod:`.rosbag`, the ``rosbags`` package);
+- PX4 ULog ``sensor_gyro`` / ``sensor_combined`` (:mod:`.ulog`, ``pyulog``).
+
+The format is recognised from the file's content (its magic bytes; a folder with
+``metadata.yaml``), or given with ``--format``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+__all__ = ["Rows", "FORMATS", "detect", "read_table"]
+
+FORMATS = ("csv", "euroc", "rosbag", "ulog")
+
+_MAGIC = {b"\x89MCAP0\r\n": "rosbag", b"ULog\x01\x12\x35": "ulog", b"SQLite format 3\x00":
+          "rosbag", b"#ROSBAG V2.0": "rosbag"}
+
+
+@dataclass(frozen=True)
+class Rows:
+    """How an error names row ``i`` of the table: ``line N`` of a text file (``first`` the line
+    of row 0), or ``message N on TOPIC`` of a bag or ULog (``what``)."""
+
+    first: int = 2
+    what: str | None = None
+
+    def __call__(self, i: int) -> str:
+        if self.what is None:
+            return f"line {self.first + int(i)}"
+        return f"message {int(i) + 1} of {self.what}"
+
+
+def detect(path) -> str:
+    """The format of ``path`` by its content: "rosbag" (a ROS 2 bag folder, MCAP, SQLite,
+    ROS 1 bag), "ulog", else "csv" (the CSV reader recognises EuRoC's header itself)."""
+    p = Path(path)
+    if p.is_dir():
+        return "rosbag" if (p / "metadata.yaml").is_file() else "csv"   # csv: refuses a folder
+    try:
+        with open(p, "rb") as f:
+            head = f.read(16)
+    except OSError:
+        return "csv"                 # the CSV reader names what is wrong with the path
+    for magic, fmt in _MAGIC.items():
+        if head.startswith(magic):
+            return fmt
+    return "csv"
+
+
+def read_table(path, fmt: str, topic: str | None):
+    """(frame, Rows, description) of a bag or ULog; the CSV formats are read by the caller."""
+    if fmt == "rosbag":
+        from .rosbag import read_imu_topic
+
+        return read_imu_topic(path, topic)
+    if fmt == "ulog":
+        from .ulog import read_ulog
+
+        return read_ulog(path, topic)
+    raise ValueError(fmt)

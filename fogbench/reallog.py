@@ -304,7 +304,8 @@ def _read_frame(path):
 
     p = Path(path)
     if p.is_dir():
-        raise LogError(f"{path}: is a directory; give a CSV file")
+        raise LogError(f"{path}: is a directory; give a log file (CSV, MCAP, .db3, .bag, "
+                       ".ulg) or a ROS 2 bag folder (one with metadata.yaml)")
     if p.is_symlink() and not p.exists():
         raise LogError(f"{path}: is a symbolic link that leads to no file (a loop, or its "
                        "target is missing)")

@@ -838,10 +838,63 @@ def _blueprint(res, w: _Writer, reps: dict | None = None, active_tab: str = "Ove
 
 # ---------------------------------------------------------------------------------------------
 # fogbench view DIR
-def _how_to(rrd: Path) -> str:
-    return (f"To open the recording: `rerun {rrd}` (a native viewer; `rerun {rrd} --web-viewer` "
-            f"serves it to a browser), or `python -m rerun {rrd}`. The viewer ships with "
-            "rerun-sdk: `pip install rerun-sdk==0.41.*` (the recording's version).")
+def _how_to(rrd: Path, display: bool = True) -> str:
+    web = (f"`fogbench view {rrd.parent} --web` serves it to a browser on this machine "
+           "(127.0.0.1; from another one, tunnel its ports: `ssh -L 9090:localhost:9090 -L "
+           "9876:localhost:9876 HOST`)")
+    native = f"`rerun {rrd}` opens a native viewer (it needs a display)"
+    first, second = (native, web) if display else (web, native)
+    return (f"To open the recording: {first}; {second}. The viewer ships with rerun-sdk: "
+            "`pip install rerun-sdk==0.41.*` (the recording's version).")
+
+
+#: Where ``fogbench view --web`` listens unless ``--bind`` says otherwise: this machine only
+#: (rerun's own default, 0.0.0.0, serves the recording to the whole network).
+WEB_BIND = "127.0.0.1"
+WEB_PORT = 9090
+GRPC_PORT = 9876
+
+
+def view_web(run_dir: Path, bind: str = WEB_BIND, web_port: int = WEB_PORT,
+             grpc_port: int = GRPC_PORT) -> int:
+    """Serve ``run_dir/recording.rrd`` to a browser (Rerun's web viewer) until Ctrl-C; says
+    where it listens. 2: no recording; 1: no viewer installed or it failed."""
+    rrd = Path(run_dir) / "recording.rrd"
+    if not rrd.is_file():
+        print(f"fogbench view: no recording at {rrd} (written by `fogbench run` unless "
+              "--no-recording)", file=sys.stderr)
+        return 2
+    cmd = _viewer_command()
+    if cmd is None:
+        print(f"fogbench view: no Rerun viewer found. {_how_to(rrd, _has_display())}",
+              file=sys.stderr)
+        return 1
+    host = f"[{bind}]" if ":" in bind else bind
+    scope = ("this machine only" if bind in ("127.0.0.1", "::1", "localhost")
+             else "EVERY network interface: anyone who can reach this machine can open it")
+    print(f"fogbench view: serving {rrd} at http://{host}:{web_port} (listening on {bind}, "
+          f"{scope}; gRPC port {grpc_port}); Ctrl-C stops it", flush=True)
+    try:
+        proc = subprocess.Popen([*cmd, str(rrd), "--web-viewer", "--bind", bind,
+                                 "--web-viewer-port", str(web_port), "--port", str(grpc_port)],
+                                stdin=subprocess.DEVNULL)
+    except OSError as exc:
+        print(f"fogbench view: cannot start {cmd[0]}: {exc}", file=sys.stderr)
+        return 1
+    try:
+        rc = proc.wait()
+    except BaseException:
+        proc.terminate()
+        try:
+            proc.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+        raise
+    if rc != 0:
+        print(f"fogbench view: the web viewer exited with status {rc} (is port {web_port} or "
+              f"{grpc_port} in use? --web-port and --grpc-port choose others)", file=sys.stderr)
+        return 1
+    return 0
 
 
 def _viewer_command() -> list[str] | None:
@@ -879,11 +932,12 @@ def view(run_dir: Path) -> int:
         return 2
     cmd = _viewer_command()
     if cmd is None:
-        print(f"fogbench view: no Rerun viewer found. {_how_to(rrd)}", file=sys.stderr)
+        print(f"fogbench view: no Rerun viewer found. {_how_to(rrd, _has_display())}",
+              file=sys.stderr)
         return 1
     if not _has_display():
-        print(f"fogbench view: no display (DISPLAY and WAYLAND_DISPLAY unset). {_how_to(rrd)}",
-              file=sys.stderr)
+        print(f"fogbench view: no display (DISPLAY and WAYLAND_DISPLAY unset). "
+              f"{_how_to(rrd, False)}", file=sys.stderr)
         return 1
     try:
         proc = subprocess.Popen([*cmd, str(rrd)], stdin=subprocess.DEVNULL,

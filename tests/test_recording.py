@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import subprocess
+from pathlib import Path
 
 import allantools
 import numpy as np
@@ -387,6 +388,88 @@ def test_view_without_a_display_says_how_to_open_the_file(tmp_path, capsys, monk
     monkeypatch.setattr(R.subprocess, "Popen", _no_popen)
     assert R.view(tmp_path) == 1
     assert f"rerun {tmp_path / 'recording.rrd'}" in capsys.readouterr().err
+
+
+def test_without_a_display_the_first_suggestion_is_the_local_web_viewer(tmp_path, capsys,
+                                                                       monkeypatch):
+    (tmp_path / "recording.rrd").write_bytes(b"x")
+    monkeypatch.setattr(R, "_viewer_command", lambda: ["/opt/fake/rerun"])
+    monkeypatch.setattr(R, "_has_display", lambda: False)
+    monkeypatch.setattr(R.subprocess, "Popen", _no_popen)
+    assert R.view(tmp_path) == 1
+    err = capsys.readouterr().err
+    assert err.index(f"fogbench view {tmp_path} --web") < err.index(f"rerun {tmp_path}")
+    assert "127.0.0.1" in err
+
+
+def _listening(port: int) -> list[str]:
+    """Local addresses (hex, as /proc/net/tcp{,6} write them) listening on ``port``."""
+    out = []
+    for name in ("/proc/net/tcp", "/proc/net/tcp6"):
+        try:
+            lines = Path(name).read_text().splitlines()[1:]
+        except OSError:
+            continue
+        for ln in lines:
+            f = ln.split()
+            addr, hexport = f[1].rsplit(":", 1)
+            if f[3] == "0A" and int(hexport, 16) == port:
+                out.append(addr)
+    return out
+
+
+def _free_port() -> int:
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.mark.skipif(not Path("/proc/net/tcp").exists(), reason="reads Linux's socket table")
+def test_view_web_listens_on_this_machine_only_and_stops_with_its_viewer(tmp_path):
+    """`fogbench view DIR --web` starts the real web viewer; the kernel's socket table shows
+    both its ports bound to 127.0.0.1 (rerun's own default is 0.0.0.0), and SIGTERM to
+    fogbench stops the viewer (the ports are released)."""
+    import signal
+    import sys
+    import time
+
+    import rerun as rr
+
+    rec = rr.RecordingStream("fogbench_view_test")
+    rec.save(str(tmp_path / "recording.rrd"))
+    rec.log("x", rr.Scalars([1.0]))
+    rec.flush()
+    web, grpc = _free_port(), _free_port()
+    exe = Path(sys.executable).with_name("fogbench")      # the console script of this venv
+    proc = subprocess.Popen([str(exe), "view", str(tmp_path), "--web",
+                             "--web-port", str(web), "--grpc-port", str(grpc)],
+                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    try:
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline and not (_listening(web) and _listening(grpc)):
+            assert proc.poll() is None, proc.stdout.read()
+            time.sleep(0.2)
+        assert _listening(web) == ["0100007F"] and _listening(grpc) == ["0100007F"]
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        try:
+            proc.wait(timeout=15)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            raise
+    assert "http://127.0.0.1:" in proc.stdout.read()
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline and (_listening(web) or _listening(grpc)):
+        time.sleep(0.2)
+    assert not _listening(web) and not _listening(grpc)
+
+
+def test_view_flags_of_the_web_viewer_need_web(tmp_path):
+    from fogbench.cli import main
+
+    assert main(["view", str(tmp_path), "--bind", "0.0.0.0"]) == 2
 
 
 def _no_popen(*a, **k):

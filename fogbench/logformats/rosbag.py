@@ -68,8 +68,12 @@ def read_imu_topic(path, topic: str | None):
         w = np.empty((n, 3))
         a = np.empty((n, 3))
         i = 0
+        from ..reallog import PROGRESS_MIN_ROWS, _progress
+
+        bar = _progress(n, f"{p.name} {topic}", "msg", n >= PROGRESS_MIN_ROWS)
         try:
             for conn, t, raw in reader.messages(connections=chosen):
+                bar.update(1)
                 m = reader.deserialize(raw, conn.msgtype)
                 if i >= n:       # more than the index said: grow
                     stamp, logt = np.resize(stamp, 2 * n + 1), np.resize(logt, 2 * n + 1)
@@ -86,6 +90,8 @@ def read_imu_topic(path, topic: str | None):
             raise _error(f"{path}: topic {topic!r}: message {i + 1} cannot be read "
                          f"({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
                          "); the bag is truncated or damaged") from None
+        finally:
+            bar.close()
     finally:
         try:
             reader.close()

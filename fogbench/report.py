@@ -23,6 +23,7 @@ from fogcomp.units import DPH, DPS  # noqa: E402
 from .fmt import (KEY_METRICS, ci_text, decimation, fmt, md_table,  # noqa: E402
                   metrics_table, p_better_text)
 from .io import atomic_write_bytes, atomic_write_text, run_arrays, save_figure as _save, versions  # noqa: E402
+from .maps import side  # noqa: E402
 from .outdir import as_final, check_out_dir, discard_part, new_part_dir, replace_dir  # noqa: E402
 from .runner import ScenarioResult, TERM_NAMES, thermal_segments, write_metrics  # noqa: E402
 
@@ -745,6 +746,7 @@ def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_d
         text = render_report(res, fig_names, decim)
         if montecarlo is not None:
             text = _insert_mc(text, render_montecarlo(res, montecarlo, fig_names))
+            text = _with_takeaway(text, montecarlo)
         else:
             bands = render_bands(res, None)
             if bands:
@@ -893,6 +895,36 @@ def recording_replicates(mc: dict, work=None) -> dict:
     return mc.get("series", {})
 
 
+def takeaway(mc: dict) -> str | None:
+    """One line for the top of a report: how the claims fared over the replicates."""
+    claims = mc.get("claims") or []
+    if not claims:
+        return None
+    count: dict[str, int] = {}
+    for c in claims:
+        word = c["verdict"]
+        if word == "disagrees":
+            word = f"disagree ({side(c)} the claim)"
+        count[word] = count.get(word, 0) + 1
+    order = ["agrees", "disagree (falls short of the claim)", "disagree (exceeds the claim)",
+             "inconclusive", "untestable"]
+    words = {"agrees": "agree"}
+    parts = [f"{count[w]} {words.get(w, w)}" for w in order if w in count]
+    parts += [f"{n} {w}" for w, n in count.items() if w not in order]
+    n_rep = mc.get("replicates")
+    over = f" over {n_rep} replicates" if n_rep else ""
+    return (f"**In short:** {len(claims)} claim verdict(s){over}: " + ", ".join(parts)
+            + " (each claim under each protocol; details in \"The papers' claims\").")
+
+
+def _with_takeaway(text: str, mc: dict) -> str:
+    line = takeaway(mc)
+    if line is None:
+        return text
+    head, sep, rest = text.partition("\n\n")
+    return f"{head}{sep}{line}\n\n{rest}"
+
+
 def render_montecarlo(res: ScenarioResult, mc: dict, fig_names: dict) -> str:
     plan = res.plan
     R, K = mc["replicates"], mc["method_seeds"]
@@ -931,7 +963,8 @@ def render_montecarlo(res: ScenarioResult, mc: dict, fig_names: dict) -> str:
             first = c["paired"].get("first_better")
             L.append(f"- {c['source']}: \"{c['text']}\" — `{c['protocol']}`{tag}: "
                      f"{c['better']} vs {c['than']} on {c['metric']}: "
-                     f"{ci_text(sm, '_pct')} % (claim {rng}): **{c['verdict']}**; the claim "
+                     f"{ci_text(sm, '_pct')} % (claim {rng}): **{c['verdict']}**"
+                     + (f" ({side(c)} the claim)" if side(c) else "") + "; the claim "
                      f"held in {held} of replicates; {c['better']} better than {c['than']} in "
                      f"{'–' if first is None else f'{100 * first:.0f} %'} of replicates. "
                      f"Oracle over {c['than']}: {ci_text(osm, '_pct')} %"

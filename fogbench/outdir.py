@@ -278,3 +278,222 @@ class Claim:
                 break
         self.made = []
 
+
+# ---------------------------------------------------------------------------------------------
+# Output files of the real-log commands (allan, calibrate, compensate, device): never someone
+# else's file, never an input, all or nothing
+def _named(exc: OSError, path) -> OSError:
+    """``exc`` naming ``path`` when it names no file (a write on a full disk names none)."""
+    from fogcomp.base import _named as named
+
+    return named(exc, path)
+
+
+def _same_file(a, b) -> bool:
+    a, b = Path(a), Path(b)
+    try:
+        if a.exists() and b.exists():
+            return os.path.samefile(a, b)
+    except OSError:
+        pass
+    try:
+        return a.resolve() == b.resolve()
+    except (OSError, RuntimeError):  # a symbolic link loop (RuntimeError before Python 3.13)
+        return os.path.abspath(a) == os.path.abspath(b)
+
+
+def _check_place(path: Path, flag: str) -> None:
+    """The nearest existing ancestor of ``path`` is a writable directory (missing folders are
+    created when the outputs are written)."""
+    anc = path.parent
+    while not anc.exists() and anc != anc.parent:
+        if anc.is_symlink():            # dangling link
+            break
+        anc = anc.parent
+    if not anc.is_dir():
+        raise OutDirError(f"{flag} {path}: {anc} is not a directory")
+    if not os.access(anc, os.W_OK | os.X_OK):
+        raise OutDirError(f"{flag} {path}: the folder {anc} is not writable")
+
+
+class Outputs:
+    """Checks every output path before any work, collects the outputs as temporary files, and
+    :meth:`commit` renames them into place all at once.
+
+    An existing output is refused unless ``overwrite``; even then only a file that ``recognise``
+    identifies as this command's own output is replaced, and never an input."""
+
+    def __init__(self, overwrite: bool, command: str):
+        self.overwrite = overwrite
+        self.command = command
+        self.pending: list[tuple[str, Path]] = []
+        self.created: list[Path] = []   # folders made for the outputs: removed if it fails
+
+    def target(self, path: Path, protect: tuple = (), *, recognise=None, what: str = "output",
+               flag: str = "--out") -> Path:
+        """Check one output file; returns its path.
+
+        Parameters
+        ----------
+        path : Path
+            The file to write.
+        protect : tuple of paths
+            Inputs of the command: never written.
+        recognise : callable of Path to bool
+            True for a file this command wrote (the only kind ever replaced).
+        what : str
+            What the output is, for messages ("model file").
+        flag : str
+            The option that named it, for messages.
+        """
+        path = Path(path)
+        for p in protect:
+            if _same_file(p, path):
+                raise OutDirError(f"{path}: is an input of this command; choose another output")
+        if path.is_dir():
+            raise OutDirError(f"{flag} {path}: is a directory; {flag} names a file here")
+        _check_place(path, flag)
+        if path.is_symlink() or path.exists():
+            if path.is_symlink() or not path.is_file() or recognise is None or \
+                    not recognise(path):
+                raise OutDirError(f"{path}: exists and is not a {what} written by fogbench "
+                               f"{self.command}; not replaced (not even with --overwrite); "
+                               f"choose another {flag}")
+            if not self.overwrite:
+                raise OutDirError(f"{path}: exists; not replaced (--overwrite replaces it)")
+        return path
+
+    def folder(self, path: Path, protect: tuple = (), *, marker: str, recognise,
+               members: list, flag: str = "--out") -> dict:
+        """Check an output folder holding ``marker`` (recognised by ``recognise``) and
+        ``members`` (name -> recogniser); returns {name: path} for the marker and members.
+        An existing marker or member is replaced only with ``overwrite`` and only when the
+        folder's marker is recognised as this command's own."""
+        path = Path(path)
+        if path.exists() and not path.is_dir():
+            raise OutDirError(f"{flag} {path}: is a file, not a folder; {flag} names the folder "
+                           f"for {marker} and the figures")
+        _check_place(path / marker, flag)
+        names = [marker, *(n for n, _ in members)]
+        paths = {n: path / n for n in names}
+        for n, p in paths.items():
+            for q in protect:
+                if _same_file(q, p):
+                    raise OutDirError(f"{p}: is an input of this command; choose another output")
+        existing = [n for n, p in paths.items() if p.exists() or p.is_symlink()]
+        if existing:
+            m = paths[marker]
+            if not (m.is_file() and not m.is_symlink() and recognise(m)):
+                raise OutDirError(f"{path / existing[0]}: exists and {path} is not a folder written "
+                               f"by fogbench {self.command} (no {marker} of its own); not "
+                               f"replaced (not even with --overwrite); choose another {flag}")
+            for n, rec in members:
+                p = paths[n]
+                if (p.exists() or p.is_symlink()) and (
+                        p.is_symlink() or not p.is_file() or not rec(p)):
+                    raise OutDirError(f"{p}: exists and is not a file written by fogbench "
+                                   f"{self.command}; not replaced (not even with --overwrite); "
+                                   f"choose another {flag}")
+            if not self.overwrite:
+                raise OutDirError(f"{path / existing[0]}: exists; not replaced (--overwrite "
+                               "replaces the outputs of fogbench "
+                               f"{self.command} in {path})")
+        return paths
+
+    def _mkdirs(self, folder: Path) -> None:
+        missing = []
+        q = folder
+        while not q.exists() and q != q.parent:
+            missing.append(q)
+            q = q.parent
+        for d in reversed(missing):
+            d.mkdir()
+            self.created.append(d)
+
+    def temp(self, path: Path) -> str:
+        """A temporary file beside ``path`` (renamed onto it by :meth:`commit`)."""
+        try:
+            self._mkdirs(path.parent)
+            fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+        except OSError as exc:
+            raise _named(exc, path) from None
+        os.close(fd)
+        self.pending.append((tmp, path))
+        return tmp
+
+    def write(self, path: Path, fn) -> None:
+        """``fn(temporary path)`` writes the output ``path``; an ``OSError`` names ``path``."""
+        tmp = self.temp(path)
+        try:
+            fn(tmp)
+        except OSError as exc:
+            raise _named(exc, path) from None
+
+    def write_text(self, path: Path, text: str) -> None:
+        def put(tmp):
+            with open(tmp, "w") as f:
+                f.write(text)
+
+        self.write(path, put)
+
+    def save_model(self, model, stem: Path) -> tuple[Path, Path]:
+        """``fogcomp.save_model`` to a temporary stem beside ``stem``; :meth:`commit` renames
+        both files (``stem.json``, ``stem.npz``) into place with the rest."""
+        import fogcomp
+
+        try:
+            self._mkdirs(stem.parent)
+            tmp = Path(tempfile.mkdtemp(dir=stem.parent, prefix=f".{stem.name}.",
+                                        suffix=".tmp"))
+        except OSError as exc:
+            raise _named(exc, stem) from None
+        self.created.append(tmp)
+        final = (stem.with_name(stem.name + ".json"), stem.with_name(stem.name + ".npz"))
+        try:
+            jtmp, ntmp = fogcomp.save_model(model, tmp / "model")
+        except OSError as exc:  # named as the user will look for it, not by its temporary name
+            target = final[1] if str(exc.filename or "").endswith(".npz") else final[0]
+            raise type(exc)(exc.errno, exc.strerror, str(target)) from None
+        self.pending += [(str(jtmp), final[0]), (str(ntmp), final[1])]
+        return final
+
+    def commit(self) -> None:
+        """Rename every output into place (none after Ctrl-C or SIGTERM)."""
+        check_signals()
+        umask = os.umask(0)
+        os.umask(umask)
+        for tmp, path in self.pending:
+            try:
+                os.chmod(tmp, 0o666 & ~umask)
+                os.replace(tmp, path)
+            except OSError as exc:
+                raise _named(exc, path) from None
+        self.pending.clear()
+        self._remove_created(only_empty=True)
+        self.created = [d for d in self.created if d.exists()]
+
+    def _remove_created(self, only_empty: bool) -> None:
+        import shutil
+
+        for d in reversed(self.created):
+            if not d.is_dir():
+                continue
+            if d.name.endswith(".tmp"):  # our own temporary folder (a model's files)
+                shutil.rmtree(d, ignore_errors=True)
+            elif not only_empty or not any(d.iterdir()):
+                try:
+                    d.rmdir()
+                except OSError:
+                    pass
+
+    def discard(self) -> None:
+        """Remove the temporary files and the folders made for the outputs (if still empty):
+        a failed command leaves nothing behind."""
+        for tmp, _ in self.pending:
+            try:
+                os.unlink(tmp)
+            except OSError:
+                pass
+        self.pending.clear()
+        self._remove_created(only_empty=True)
+        self.created.clear()

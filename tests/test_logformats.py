@@ -472,3 +472,14 @@ def test_a_ros1_bag_reads_back_to_the_written_samples(tmp_path):
     assert log.fs == pytest.approx(FS, rel=1e-12)
     np.testing.assert_array_equal(log.channels["gyro_y"], w[:, 1])
     np.testing.assert_array_equal(log.channels["acc_z"], a[:, 2])
+
+
+@pytest.mark.parametrize("fmt", [None, "rosbag", "ulog"])
+def test_a_pipe_is_refused_not_read_whatever_the_format(tmp_path, fmt):
+    """Recognising a format reads the file's first bytes: a named pipe would block it for ever."""
+    import os
+
+    fifo = tmp_path / "imu.mcap"
+    os.mkfifo(fifo)
+    code, err = run(["allan", fifo, *(["--format", fmt] if fmt else [])])
+    assert code == 2 and "not a regular file" in err

@@ -47,6 +47,8 @@ def detect(path) -> str:
     p = Path(path)
     if p.is_dir():
         return "rosbag" if (p / "metadata.yaml").is_file() else "csv"   # csv: refuses a folder
+    if not p.is_file():     # a pipe or a device would block the read: the CSV reader refuses it
+        return "csv"
     try:
         with open(p, "rb") as f:
             head = f.read(16)

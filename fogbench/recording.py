@@ -855,20 +855,28 @@ WEB_PORT = 9090
 GRPC_PORT = 9876
 
 
-def view_web(run_dir: Path, bind: str = WEB_BIND, web_port: int = WEB_PORT,
-             grpc_port: int = GRPC_PORT) -> int:
-    """Serve ``run_dir/recording.rrd`` to a browser (Rerun's web viewer) until Ctrl-C; says
-    where it listens. 2: no recording; 1: no viewer installed or it failed."""
+def _recording_and_viewer(run_dir: Path):
+    """(recording path, viewer command); (None, None) when there is no recording and (path,
+    None) when no viewer is installed, each said on stderr."""
     rrd = Path(run_dir) / "recording.rrd"
     if not rrd.is_file():
         print(f"fogbench view: no recording at {rrd} (written by `fogbench run` unless "
               "--no-recording)", file=sys.stderr)
-        return 2
+        return None, None
     cmd = _viewer_command()
     if cmd is None:
         print(f"fogbench view: no Rerun viewer found. {_how_to(rrd, _has_display())}",
               file=sys.stderr)
-        return 1
+    return rrd, cmd
+
+
+def view_web(run_dir: Path, bind: str = WEB_BIND, web_port: int = WEB_PORT,
+             grpc_port: int = GRPC_PORT) -> int:
+    """Serve ``run_dir/recording.rrd`` to a browser (Rerun's web viewer) until Ctrl-C; says
+    where it listens. 2: no recording; 1: no viewer installed or it failed."""
+    rrd, cmd = _recording_and_viewer(run_dir)
+    if cmd is None:
+        return 2 if rrd is None else 1
     host = f"[{bind}]" if ":" in bind else bind
     scope = ("this machine only" if bind in ("127.0.0.1", "::1", "localhost")
              else "EVERY network interface: anyone who can reach this machine can open it")
@@ -925,16 +933,9 @@ def view(run_dir: Path) -> int:
     (no viewer installed, no display, or the viewer failed at once): a message then says how to
     open the file.
     """
-    rrd = Path(run_dir) / "recording.rrd"
-    if not rrd.is_file():
-        print(f"fogbench view: no recording at {rrd} (written by `fogbench run` unless "
-              "--no-recording)", file=sys.stderr)
-        return 2
-    cmd = _viewer_command()
+    rrd, cmd = _recording_and_viewer(run_dir)
     if cmd is None:
-        print(f"fogbench view: no Rerun viewer found. {_how_to(rrd, _has_display())}",
-              file=sys.stderr)
-        return 1
+        return 2 if rrd is None else 1
     if not _has_display():
         print(f"fogbench view: no display (DISPLAY and WAYLAND_DISPLAY unset). "
               f"{_how_to(rrd, False)}", file=sys.stderr)

@@ -52,7 +52,7 @@ def bench_allan(n: int = 10**7, repeats: int = 3, fs: float = 100.0) -> None:
 
 
 def bench_compensate_write(n: int = 10**6, repeats: int = 3) -> None:
-    """Time how ``fogbench compensate`` writes its output (:func:`fogbench.reallog._write_csv`:
+    """Time how ``fogbench compensate`` writes its output (:func:`fogbench.reallog.compensate._write_csv`:
     pyarrow, gzip level 1) against the writer it replaced (pandas ``to_csv`` with
     ``float_format="%.10g"``, gzip at pandas' default level) on the same frame shaped as the
     ADIS16405 log plus three compensated columns (10 float columns), for ``.csv`` and
@@ -70,7 +70,7 @@ def bench_compensate_write(n: int = 10**6, repeats: int = 3) -> None:
 
     import pandas as pd
 
-    from fogbench.reallog import _significant, _write_csv
+    from fogbench.reallog.compensate import _significant, _write_csv
 
     rng = np.random.default_rng(0)
     cols = {"time_s": np.round(np.arange(n) / 100.0, 2)}

@@ -41,8 +41,14 @@ import numpy as np
 
 from fogcomp.units import ARCSEC, DEG_RT_H, DPH, DPH_PER_H, DPH_RT_H, DPS
 
-from .reallog import (MIN_RECORD_SAMPLES, LogError, _common, _curve_record, _source,
-                      reference_unit, _fmt_number, _Outputs, _warnings_as_lines, read_curve, read_log)
+from .logformats.curve import read_curve
+from .logformats.errors import LogError
+from .logformats.table import MIN_RECORD_SAMPLES, fmt_number as _fmt_number, read_log
+from .outdir import Outputs as _Outputs
+from .reallog.allan import _curve_record
+from .reallog.calibrate import reference_unit
+from .reallog.console import _warnings_as_lines
+from .reallog.options import _common, _source
 
 __all__ = ["MARKER", "preset_text", "DeviceFit", "fit_device", "twin_curves", "check_device",
            "add_commands"]
@@ -675,8 +681,10 @@ def _check_reference_flag(reference):
 
 
 def _read_multipos(path, args):
+    from fogcomp.units import G0
+
     from .device_multipos import MultiposLog
-    from .reallog import G0, reference_rate
+    from .reallog.calibrate import reference_rate
 
     _check_reference_flag(args.reference)
     chans = [f"gyro_{args.axis}" if args.axis else "gyro_*", "acc_x", "acc_y", "acc_z"]
@@ -966,7 +974,7 @@ def _cmd_show(args) -> int:
 
 def _noise_file_targets(args) -> list:
     """--kalibr / --openvins of ``device show``: checked before any work; needs --rate-hz."""
-    from .reallog import _Outputs, _tool_targets
+    from .reallog.allan import _tool_targets
 
     if not (args.kalibr or args.openvins):
         if args.rate_hz is not None:

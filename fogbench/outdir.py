@@ -497,3 +497,26 @@ class Outputs:
         self.pending.clear()
         self._remove_created(only_empty=True)
         self.created.clear()
+
+
+# What a command recognises as its own output: only such a file is ever replaced.
+_RECOGNISE_MAX_BYTES = 50_000_000
+
+
+def json_format(path: Path):
+    """The ``format`` key of a small JSON object file, else None."""
+    try:
+        if path.stat().st_size > _RECOGNISE_MAX_BYTES:
+            return None
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return doc.get("format") if isinstance(doc, dict) else None
+
+
+def starts_with(path: Path, magic: bytes) -> bool:
+    try:
+        with open(path, "rb") as f:
+            return f.read(len(magic)) == magic
+    except OSError:
+        return False

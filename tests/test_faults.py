@@ -323,7 +323,7 @@ def test_a_model_of_another_method_under_the_manifest_is_refused(tmp_path):
         shutil.copyfile(tmp_path / "w" / f"ws.gyro_y{suffix}", m / f"kal.gyro_y{suffix}")
     assert_compensate_refused(tmp_path, m / "kal", log, "kal.gyro_y.json", "does not match")
     # even with the manifest's pins updated, the model's own method is compared
-    from fogbench.reallog import _file_sha256
+    from fogbench.reallog.modelfile import _file_sha256
 
     def repin(doc):
         doc["axes"]["gyro_y"]["json_sha256"] = _file_sha256(m / "kal.gyro_y.json")

@@ -12,7 +12,7 @@ import re
 import numpy as np
 import pytest
 
-from fogbench.reallog import read_log
+from fogbench.logformats.table import read_log
 
 from test_reallog import run
 

@@ -13,7 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fogbench.reallog import LogError, add_commands
+from fogbench.logformats.errors import LogError
+from fogbench.reallog import add_commands
 
 DEG = math.pi / 180.0
 
@@ -452,7 +453,7 @@ def test_allan_refuses_a_stuck_channel(tmp_path):
 
 
 def test_one_minimum_record_length_for_allan_and_calibrate(tmp_path):
-    from fogbench.reallog import MIN_RECORD_SAMPLES
+    from fogbench.logformats.table import MIN_RECORD_SAMPLES
 
     # at least 5 octave taus (1..16 samples), the longest usable being (n - 1) // 2
     assert (MIN_RECORD_SAMPLES - 1) // 2 >= 16
@@ -619,7 +620,7 @@ def test_allan_figure_draws_each_term_and_marks_upper_bounds():
 def test_csv_writer_matches_pandas_to_csv(tmp_path):
     import pandas as pd
 
-    from fogbench.reallog import _write_csv
+    from fogbench.reallog.compensate import _write_csv
 
     rng = np.random.default_rng(3)
     n = 250_001                                       # several write chunks, one partial
@@ -637,7 +638,7 @@ def test_csv_writer_matches_pandas_to_csv(tmp_path):
 
 
 def test_added_columns_have_ten_significant_digits():
-    from fogbench.reallog import _significant
+    from fogbench.reallog.compensate import _significant
 
     rng = np.random.default_rng(4)
     x = rng.standard_normal(20_000) * 10.0 ** rng.integers(-12, 8, 20_000)

@@ -5,7 +5,8 @@ module per format, each turning a file into the same table the CSV reader gives 
 bag's message), so that every later check (units, magnitudes, time, gaps) is the CSV reader's
 and names the place in the file.
 
-- CSV (``fogbench.reallog``, with EuRoC / TUM-VI's ``#`` header: :mod:`.euroc`);
+- CSV (:mod:`.csvfile`, with EuRoC / TUM-VI's ``#`` header: :mod:`.euroc`), validated by
+  :mod:`.table` whatever the format;
 - ROS 1 bags, ROS 2 bags (a folder with ``metadata.yaml``, or a ``.db3``) and MCAP files with
   ``sensor_msgs/msg/Imu`` (:mod:`.rosbag`, the ``rosbags`` package);
 - PX4 ULog ``sensor_gyro`` / ``sensor_combined`` (:mod:`.ulog`, ``pyulog``).

@@ -23,7 +23,7 @@ IMU_TYPES = ("sensor_msgs/msg/Imu", "sensor_msgs/Imu")
 
 
 def _error(text: str):
-    from ..reallog import LogError
+    from .errors import LogError
 
     return LogError(text)
 
@@ -68,7 +68,7 @@ def read_imu_topic(path, topic: str | None):
         w = np.empty((n, 3))
         a = np.empty((n, 3))
         i = 0
-        from ..reallog import PROGRESS_MIN_ROWS, _progress
+        from ..reallog.console import PROGRESS_MIN_ROWS, _progress
 
         bar = _progress(n, f"{p.name} {topic}", "msg", n >= PROGRESS_MIN_ROWS)
         try:

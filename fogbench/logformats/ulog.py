@@ -19,7 +19,7 @@ TOPICS = ("sensor_gyro", "sensor_combined")
 
 
 def _error(text: str):
-    from ..reallog import LogError
+    from .errors import LogError
 
     return LogError(text)
 

@@ -1,0 +1,314 @@
+"""``fogbench calibrate``: a fogcomp method fitted on a record against a reference rate (a
+column, a constant table rate, or the Earth rate at rest), or the Ferraris six-position +
+three-rotation triad calibration; the model files are written by :mod:`.modelfile`'s rules."""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from fogcomp.units import G0
+
+from ..logformats.errors import LogError
+from ..logformats.table import DEG, GYRO_UNITS, MIN_RECORD_SAMPLES, Log, read_log
+from ..logformats.table import fmt_number as _fmt_number
+from ..logformats.table import numeric as _numeric
+from ..outdir import Outputs as _Outputs
+from .console import _is_identifiability, _note, _warning
+from .modelfile import (
+    MANIFEST_VERSION,
+    _file_sha256,
+    _is_fogcomp_model,
+    _is_model_manifest,
+    _sealed,
+)
+from .options import _source
+
+#: Plausible local gravity, m/s^2 (9.78 at the equator to 9.83 at the poles at sea level, less
+#: on mountains), for ``calibrate ferraris --g``.
+G_RANGE_MPS2 = (9.7, 9.9)
+EARTH_RATE = 7.2921150e-5          # rad/s, WGS-84 / IERS
+
+
+def _earth_rate_body(latitude_deg: float, heading_deg: float, z_up: bool) -> np.ndarray:
+    """Earth rate in a level body frame, rad/s: x along the heading, y right, z down (NED-like),
+    or with ``z_up`` x forward, y left, z up. Titterton & Weston (2004) eq. 3.72 (NED)."""
+    lat, psi = latitude_deg * DEG, heading_deg * DEG
+    north, down = EARTH_RATE * math.cos(lat), -EARTH_RATE * math.sin(lat)
+    w = np.array([north * math.cos(psi), -north * math.sin(psi), down])
+    if z_up:
+        w = w * np.array([1.0, -1.0, -1.0])
+    return w
+
+
+def _check_calibrate_flags(args) -> None:
+    """Refuse non-finite or implausible numbers in calibrate's flags, naming the flag."""
+    def finite(flag, value, unit):
+        if value is not None and not math.isfinite(value):
+            raise LogError(f"{flag}: expected a finite number in {unit}, got "
+                           f"{_fmt_number(value)}")
+
+    finite("--rate-dps", args.rate_dps, "deg/s")
+    finite("--heading-deg", args.heading_deg, "deg")
+    finite("--latitude-deg", args.latitude_deg, "deg")
+    if args.latitude_deg is not None and not -90.0 <= args.latitude_deg <= 90.0:
+        raise LogError(f"--latitude-deg: expected a latitude between -90 and 90 deg, got "
+                       f"{_fmt_number(args.latitude_deg)}")
+    finite("--angle-deg", args.angle_deg, "deg")
+    if args.angle_deg is not None and args.angle_deg == 0:
+        raise LogError("--angle-deg: the rotations' angle must not be 0")
+    lo, hi = G_RANGE_MPS2
+    if not (math.isfinite(args.g) and lo <= args.g <= hi):
+        raise LogError(f"--g: expected the local gravity in m/s^2 (not in g), between {lo:g} "
+                       f"and {hi:g}, got {_fmt_number(args.g)}")
+
+
+def _one_attitude(log: Log, max_deg: float = 5.0) -> str | None:
+    """When the record's accelerometers show a single attitude (the mean specific force of
+    each tenth of the record within ``max_deg`` of the overall mean), describe it; else None
+    (also when there are no accelerometers in m/s^2 or g)."""
+    if not all(f"acc_{a}" in log.channels and log.units[f"acc_{a}"] != "au" for a in "xyz"):
+        return None
+    f = np.column_stack([log.channels[f"acc_{a}"] for a in "xyz"])
+    mean = f.mean(axis=0)
+    if not np.linalg.norm(mean) > 0:
+        return None
+    parts = np.array([c.mean(axis=0) for c in np.array_split(f, min(10, len(f)))])
+    cos = parts @ mean / (np.linalg.norm(parts, axis=1) * np.linalg.norm(mean))
+    spread = math.degrees(math.acos(float(np.clip(cos.min(), -1.0, 1.0))))
+    if spread > max_deg:
+        return None
+    g = mean / G0
+    return (f"the specific force stays within {spread:.2g} deg of ({g[0]:.3f}, {g[1]:.3f}, "
+            f"{g[2]:.3f}) g throughout")
+
+
+def reference_unit(column: str) -> float:
+    """rad/s per unit of a reference-rate column (``--reference``), named with its unit."""
+    m = re.fullmatch(r"(.+)_(dps|rps|dph|deg_s|rad_s)", column)
+    if not m:
+        raise LogError(f"--reference {column!r}: name a column with a rate unit suffix (_dps, "
+                       "_rps, _dph)")
+    return GYRO_UNITS[m.group(2)]
+
+
+def reference_rate(path, log: Log, column: str) -> np.ndarray:
+    """The reference rate of a log's column ``column`` (``--reference``), rad/s."""
+    factor = reference_unit(column)
+    if column not in log.frame.columns:
+        raise LogError(f"{path}: no column {column!r} (--reference)")
+    return _numeric(path, log.frame, column, 2) * factor
+
+
+def _cmd_calibrate(args) -> int:
+    import fogcomp
+
+    method = args.method
+    if method != "ferraris":
+        try:           # a built-in, an entry-point plug-in or module:Class
+            fogcomp.get_method(method)
+        except KeyError as exc:
+            raise LogError(f"calibrate: {exc.args[0]} (or ferraris)") from None
+    _check_calibrate_flags(args)
+    out = _Outputs(args.overwrite, "calibrate")
+    model_path = Path(args.out)
+    if model_path.name in ("", ".", "..") or ".." in model_path.parts:
+        raise LogError(f"--out {args.out!r}: name the model file (e.g. --out models/kal), not "
+                       "a folder; a path through '..' is refused")
+    if model_path.suffix == ".json":
+        model_path = model_path.with_suffix("")
+    manifest = model_path.with_name(model_path.name + ".json")
+    out.target(manifest, (args.log,), recognise=_is_model_manifest, what="model file")
+    if method == "ferraris":
+        return _calibrate_ferraris(args, out, manifest)
+    cls = fogcomp.get_method(method)
+    refs = [x for x in (args.reference, args.rate_dps, args.static or None) if x is not None]
+    if cls.supervised and len(refs) != 1:
+        raise LogError(f"calibrate {method}: a supervised method needs exactly one of "
+                       "--reference COLUMN, --rate-dps RATE, --static (with --latitude-deg, "
+                       "--heading-deg)")
+    if not cls.supervised and refs:
+        raise LogError(f"calibrate {method}: this method learns from the signal alone; "
+                       "--reference / --rate-dps / --static do not apply")
+    if args.static and (args.latitude_deg is None or args.heading_deg is None):
+        raise LogError("--static: give --latitude-deg and --heading-deg (Earth rate in the body)")
+    if cls.random and args.seed is None:
+        raise LogError(f"calibrate {method}: the method draws random numbers; give --seed N")
+    axes = [f"gyro_{a}" for a in (args.axis or "xyz")]
+    header_chans = None
+    if args.axis:
+        header_chans = list(axes)
+    need = list(header_chans or ["gyro_*"])
+    if "g" in cls.requires:
+        need += ["acc_x", "acc_y", "acc_z"]
+    if "temp" in cls.requires or "temp_rate" in cls.requires:
+        need += ["temp"]
+    log = read_log(args.log, **_source(args), mapping=args.column, channels=need, fs=args.fs,
+                   gaps=args.gaps, time_tolerance=args.time_tolerance,
+                   min_samples=MIN_RECORD_SAMPLES)
+    if header_chans is None:
+        axes = sorted(c for c in log.channels if c.startswith("gyro_"))
+    paths = {ch: model_path.with_name(f"{model_path.name}.{ch}") for ch in axes}
+    for ch, p in paths.items():
+        for suffix in (".json", ".npz"):
+            out.target(p.with_name(p.name + suffix), (args.log,), recognise=_is_fogcomp_model,
+                       what="model file")
+    _note(log.describe())
+    attitude = _one_attitude(log) if "g" in cls.requires else None
+    ref = None
+    if args.reference:
+        ref = reference_rate(args.log, log, args.reference)
+    models = {}
+    for ch in axes:
+        if log.units[ch] == "au":
+            raise LogError(f"{args.log}: column {log.sources[ch]!r} is in raw counts; "
+                           f"{method} needs a rate unit")
+        if args.rate_dps is not None:
+            r = np.full(log.n, args.rate_dps * DEG)
+        elif args.static:
+            r = np.full(log.n, _earth_rate_body(args.latitude_deg, args.heading_deg,
+                                                args.z_up)["xyz".index(ch[-1])])
+        else:
+            r = ref
+        parts, refs_ = [], []
+        for a, b in log.segments:
+            parts.append(_gyro_data(log, ch, slice(a, b)))
+            refs_.append(None if r is None else r[a:b])
+        data = fogcomp.GyroData.concatenate(parts) if len(parts) > 1 else parts[0]
+        rr = None if r is None else np.concatenate(refs_)
+        hp = {"random_state": args.seed} if cls.random else {}
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            models[ch] = fogcomp.make_method(method, **hp).fit(data, rr)
+        ident = getattr(models[ch], "identifiability_", None)
+        if attitude is not None:
+            rank = f"rank {ident.rank} of {ident.n_terms}" if ident is not None else ""
+            _warning(f"calibrate {method}, {ch}: {args.log} holds one attitude only "
+                     f"({attitude}): from one attitude only the bias is identifiable (the bias "
+                     "and the g-sensitive terms add up to one constant there); the fitted "
+                     "g-sensitivity is not meaningful"
+                     + (f" (the fit's {rank} comes from accelerometer noise alone)"
+                        if rank else "")
+                     + "; calibrate on a record with several attitudes (e.g. six positions)")
+            caught = [w for w in caught if not _is_identifiability(w)]
+        for w in caught:
+            _warning(f"calibrate {method}, {ch}: {w.message}")
+    try:
+        # every file is written under a temporary name and renamed into place with the others
+        # (the manifest last): a failure leaves no model set without its manifest
+        entries = {}
+        for ch in axes:
+            jpath, npath = out.save_model(models[ch], paths[ch])
+            pending = dict((final, tmp) for tmp, final in out.pending)
+            entries[ch] = {"model": paths[ch].name, "unit": log.units[ch], "method": method,
+                           "json_sha256": _file_sha256(pending[jpath]),
+                           "npz_sha256": _file_sha256(pending[npath])}
+        doc = _sealed({"format": "fogbench-log-model", "version": MANIFEST_VERSION,
+                       "method": method, "fs_hz": log.fs, "axes": entries,
+                       "calibration_file": str(args.log)})
+        out.write_text(manifest, json.dumps(doc, indent=2, allow_nan=False))
+        out.commit()
+    finally:
+        out.discard()
+    print(f"calibrate {method}: fitted {', '.join(axes)} on {log.n} samples at {log.fs:g} Hz; "
+          f"wrote {manifest} and {len(axes)} model file pair(s)")
+    return 0
+
+
+def _gyro_data(log: Log, ch: str, sl: slice):
+    import fogcomp
+
+    g = temp = temp_rate = None
+    if all(f"acc_{a}" in log.channels for a in "xyz"):
+        if any(log.units[f"acc_{a}"] == "au" for a in "xyz"):
+            g = None
+        else:
+            g = np.column_stack([log.channels[f"acc_{a}"][sl] for a in "xyz"]) / G0
+    if "temp" in log.channels:
+        temp = log.channels["temp"][sl]
+        temp_rate = np.gradient(temp, 1.0 / log.fs) if temp.size > 1 else np.zeros_like(temp)
+    return fogcomp.GyroData(rate=log.channels[ch][sl], fs=log.fs, g=g, temp=temp,
+                            temp_rate=temp_rate)
+
+
+#: Scale factor range, SI per SI, of a triad whose columns are in a physical unit (dps, g, ...):
+#: a calibration gives values near 1 there; beyond a factor 2 the unit in the header is wrong.
+PHYSICAL_SCALE_RANGE = (0.5, 2.0)
+
+
+def _check_triad(path, log: Log, acc: dict, gyro: dict, cal) -> None:
+    """Refuse a triad calibration that contradicts the procedure's physics (swapped or
+    mislabelled columns), naming the columns; nothing is written then."""
+    from fogcomp.calibration import ferraris_plausibility
+
+    problems = ferraris_plausibility(acc, gyro, cal)
+    lo, hi = PHYSICAL_SCALE_RANGE
+    for sensor, scale in (("acc", cal.acc_scale), ("gyro", cal.gyro_scale)):
+        for j, ax in enumerate("xyz"):
+            ch = f"{sensor}_{ax}"
+            if log.units[ch] != "au" and not lo <= abs(scale[j]) <= hi:
+                problems.append((ch, f"its scale factor comes out {abs(scale[j]):.4g} "
+                                     f"{log.units[ch]} per {log.units[ch]} (a physical unit "
+                                     f"gives {lo:g} to {hi:g}): is the unit in its name right?"))
+    if problems:
+        ch, why = problems[0]
+        swapped = any(c.startswith("acc_") and "gravity" in w for c, w in problems)
+        raise LogError(
+            f"{path}: column {log.sources[ch]!r} ({ch}): {why}"
+            + (f"; {len(problems) - 1} more such problem(s)" if len(problems) > 1 else "")
+            + ("; are the accelerometer and gyro columns swapped? (accelerometer columns: "
+               + ", ".join(log.sources[f"acc_{a}"] for a in "xyz") + "; gyro columns: "
+               + ", ".join(log.sources[f"gyro_{a}"] for a in "xyz") + ")" if swapped else "")
+            + "; nothing was written")
+
+
+def _calibrate_ferraris(args, out: _Outputs, manifest: Path) -> int:
+    from fogcomp.calibration import FERRARIS_PARTS, ferraris_calibration
+
+    if args.angle_deg is None:
+        raise LogError("calibrate ferraris: give --angle-deg, the known angle of each rotation "
+                       "(signed by the right-hand rule; imucal's default is -360)")
+    chans = [f"{k}_{a}" for k in ("acc", "gyro") for a in "xyz"]
+    log = read_log(args.log, **_source(args), mapping=args.column, channels=chans, fs=args.fs,
+                   gaps="refuse", time_tolerance=args.time_tolerance, min_samples=2)
+    _note(log.describe())
+    if "part" not in log.frame.columns:
+        raise LogError(f"{args.log}: missing column 'part' (x_p, x_a, ..., z_rot), which "
+                       "says which position or rotation each row belongs to")
+    part = log.frame["part"].astype(str).str.strip().to_numpy()
+    known = set(FERRARIS_PARTS)
+    unknown = sorted(set(part) - known)
+    if unknown:
+        i = int(np.flatnonzero(part == unknown[0])[0])
+        raise LogError(f"{args.log}: line {i + 2}, column 'part': unknown part {unknown[0]!r}; "
+                       f"expected {', '.join(FERRARIS_PARTS)}")
+    acc, gyro = {}, {}
+    for p in FERRARIS_PARTS:
+        sel = part == p
+        if sel.sum() < 2:
+            raise LogError(f"{args.log}: part {p!r} has {int(sel.sum())} rows; a Ferraris "
+                           "session needs every part with at least 2")
+        acc[p] = np.column_stack([log.channels[f"acc_{a}"][sel] for a in "xyz"])
+        gyro[p] = np.column_stack([log.channels[f"gyro_{a}"][sel] for a in "xyz"])
+    cal = ferraris_calibration(acc, gyro, log.fs, args.angle_deg * DEG, g=args.g)
+    _check_triad(args.log, log, acc, gyro, cal)
+    doc = _sealed({"format": "fogbench-triad-model", "version": MANIFEST_VERSION,
+                   "method": "ferraris", "fs_hz": log.fs, "calibration_file": str(args.log),
+                   "columns": {ch: {"column": log.sources[ch], "unit": log.units[ch]}
+                               for ch in chans},
+                   "calibration": cal.to_dict()})
+    try:
+        out.write_text(manifest, json.dumps(doc, indent=2, allow_nan=False))
+        out.commit()
+    finally:
+        out.discard()
+    k = cal.gyro_scale * DEG
+    print(f"calibrate ferraris: {log.n} samples at {log.fs:g} Hz, g = {args.g} m/s^2, rotations "
+          f"{args.angle_deg:g} deg; gyro scale {k.round(4).tolist()} per deg/s, bias "
+          f"{cal.gyro_bias.round(4).tolist()}; wrote {manifest}")
+    return 0

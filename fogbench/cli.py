@@ -486,8 +486,9 @@ def _os_error_text(exc: OSError) -> str:
 
 
 def _method_environment(args) -> dict:
-    """--fit-timeout-s and --with-method as the environment the scenario loader reads (so that
-    worker processes see them too); a --with-method name that is unknown is refused here."""
+    """--fit-timeout-s, --with-method and --reference as the environment the scenario loader
+    reads (so that worker processes see them too; each flag given wins over the variable
+    inherited); a --with-method name that is unknown is refused here."""
     import fogcomp
 
     from .scenario import FIT_TIMEOUT_ENV, REFERENCE_ENV, WITH_METHODS_ENV
@@ -495,8 +496,10 @@ def _method_environment(args) -> dict:
     env = {}
     if getattr(args, "fit_timeout_s", None) is not None:
         env[FIT_TIMEOUT_ENV] = repr(args.fit_timeout_s)
-    if getattr(args, "reference", None) == "lab":
-        env[REFERENCE_ENV] = "lab"
+    if args.command in ("run", "suite") and args.reference is not None:
+        # "truth" too: the flag given wins over a FOGBENCH_REFERENCE inherited from the shell
+        # (device fit's and calibrate's --reference name a log's column: not this)
+        env[REFERENCE_ENV] = args.reference
     names = getattr(args, "with_method", None) or []
     for n in names:
         try:

@@ -630,6 +630,90 @@ def _short(v) -> str:
     return t if len(t) <= 80 else t[:77] + "..."
 
 
+_PROTOCOLS_HEADER = re.compile(r"[ \t]*\[\[[ \t]*protocols[ \t]*\]\][ \t]*(#.*)?")
+
+
+def _same_doc(a, b) -> bool:
+    """Two parsed TOML documents hold the same values (NaN equal to NaN)."""
+    return json.dumps(a, sort_keys=True, default=str) == json.dumps(b, sort_keys=True, default=str)
+
+
+def _toml_value(v) -> str:
+    """A parsed TOML value written back as TOML (inline: tables as { }, on one line)."""
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        return "nan" if math.isnan(v) else ("inf" if v > 0 else "-inf") if math.isinf(v) \
+            else repr(v)
+    if isinstance(v, str):   # JSON's escapes are TOML's, but for DEL, which TOML escapes too
+        return json.dumps(v, ensure_ascii=False).replace("\x7f", "\\u007f")
+    if isinstance(v, list):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    if isinstance(v, dict):
+        return "{" + ", ".join(f"{_toml_value(k)} = {_toml_value(x)}" for k, x in v.items()) + "}"
+    return v.isoformat()     # a date or a time
+
+
+def _toml_document(doc: dict) -> str:
+    """A parsed TOML document written back as TOML: its top-level tables and arrays of tables
+    as headers, every value under them inline."""
+    def keys(t):
+        return "".join(f"{_toml_value(k)} = {_toml_value(v)}\n" for k, v in t.items())
+
+    out = [keys({k: v for k, v in doc.items() if not isinstance(v, dict)
+                 and not (isinstance(v, list) and v and all(isinstance(x, dict) for x in v))})]
+    for k, v in doc.items():
+        if isinstance(v, dict):
+            out.append(f"\n[{_toml_value(k)}]\n{keys(v)}")
+        elif isinstance(v, list) and v and all(isinstance(x, dict) for x in v):
+            out += [f"\n[[{_toml_value(k)}]]\n{keys(x)}" for x in v]
+    return "".join(out)
+
+
+def _with_lab_references(text: str, which: list[int], names: list[str]) -> str:
+    """The scenario's text with ``reference = "lab"`` in its protocols numbered ``which``
+    (``--reference lab``), so that the text, the run folder's scenario.toml, runs again as it
+    ran: a line after each one's ``[[protocols]]`` header. A file whose protocols are not
+    written under such headers (inline tables) is written out whole, its own text kept below
+    as comments. Either is read back and checked to hold the values the run ran."""
+    note = "  # --reference lab\n"
+    try:
+        want = tomllib.loads(text)
+        for i in which:
+            want["protocols"][i]["reference"] = "lab"
+    except (tomllib.TOMLDecodeError, KeyError, IndexError, TypeError):
+        # the text's protocols are not the run's (not a file as read): say so in a comment
+        return text + ('\n# --reference lab: reference = "lab" set in protocols '
+                       + ", ".join(json.dumps(n) for n in names) + "\n")
+
+    def holds(new: str) -> bool:
+        try:
+            return _same_doc(tomllib.loads(new), want)
+        except tomllib.TOMLDecodeError:
+            return False
+
+    lines = text.splitlines(keepends=True)
+    heads = [i for i, ln in enumerate(lines) if _PROTOCOLS_HEADER.fullmatch(ln.rstrip("\r\n"))]
+    if len(heads) == len(want["protocols"]):
+        for i in sorted(which, reverse=True):
+            h = heads[i]
+            lines.insert(h + 1, ("" if lines[h].endswith("\n") else "\n")
+                         + 'reference = "lab"' + note)
+        new = "".join(lines)
+        if holds(new):
+            return new
+    new = ("# --reference lab: reference = \"lab\" set in protocols "
+           + ", ".join(json.dumps(n) for n in names) + "; the file written out whole (its "
+           "own text, as given, is below as comments)\n" + _toml_document(want)
+           + "\n# the file as given:\n" + "".join(f"# {ln}\n" for ln in text.splitlines()))
+    if not holds(new):
+        raise ScenarioError("--reference lab: cannot write the scenario with reference = "
+                            "\"lab\" set in its protocols (please report this file)")
+    return new
+
+
 def load_scenario(path: str | Path, extra_sections: tuple[str, ...] = (),
                   overrides: dict | None = None) -> Scenario:
     """Load and validate a scenario file. Raises ScenarioError naming file, key and expectation.
@@ -668,13 +752,15 @@ def load_scenario(path: str | Path, extra_sections: tuple[str, ...] = (),
             f"[[methods]]\nname = {json.dumps(n)}\n" for n in added)
     if reference_override() == "lab" and isinstance(doc.get("protocols"), list):
         # --reference lab: every protocol that does not say its reference is fitted on the
-        # lab's, beside its ideal-lab twin; part of the text, like --with-method
-        set_ = [p for p in doc["protocols"] if isinstance(p, dict) and "reference" not in p]
-        for p in set_:
-            p["reference"] = "lab"
+        # lab's, beside its ideal-lab twin; written into the text, like --with-method, so that
+        # the run folder's scenario.toml runs again as it ran
+        set_ = [i for i, p in enumerate(doc["protocols"])
+                if isinstance(p, dict) and "reference" not in p]
+        for i in set_:
+            doc["protocols"][i]["reference"] = "lab"
         if set_:
-            text = text + ("\n# --reference lab: reference = \"lab\" set in protocols "
-                           + ", ".join(json.dumps(str(p.get("name"))) for p in set_) + "\n")
+            text = _with_lab_references(text, set_, [str(doc["protocols"][i].get("name"))
+                                                     for i in set_])
     top = _Table(doc, "top level", file)
     sc = _Table(top.get("scenario", "table"), "[scenario]", file)
     name = sc.get("name", "name")

@@ -355,3 +355,85 @@ def test_reference_lab_on_the_command_line_fits_every_protocol_on_the_labs_refer
     err = {n: prot[n]["runs"]["b"]["model_lstsq"]["mean_error_dph"] for n in prot}
     expect = OMEGA * math.cos(LAT) * math.sin(math.radians(1.0)) / DPH
     assert err["lab.ideal"] - err["lab"] == pytest.approx(expect, abs=1e-4)
+
+
+def _references(out):
+    import json
+
+    doc = json.loads((out / "metrics.json").read_text())
+    return {n: p["reference"] for n, p in doc["protocols"].items()}
+
+
+def test_the_saved_scenario_of_a_reference_lab_run_reruns_as_it_ran(tmp_path, monkeypatch):
+    """`fogbench run --reference lab`: the run folder's scenario.toml, run again without the
+    flag, fits every protocol on the reference it was fitted on (the flag is written into the
+    file as reference = "lab" in each protocol that did not name its own, not as a comment
+    only). A protocol that names "truth" stays on the truth."""
+    from fogbench.cli import main
+    from fogbench.scenario import REFERENCE_ENV
+
+    monkeypatch.delenv(REFERENCE_ENV, raising=False)
+    path = tmp_path / "lab.toml"
+    path.write_text(LAB_SCENARIO.replace('reference = "lab"\n', "")
+                    + '\n[[protocols]]\nname = "named_truth"  # says its own\nreference = '
+                    '"truth"\nfit = ["a"]\nscore = ["b"]\n')
+    first = tmp_path / "first"
+    assert main(["run", str(path), "--out", str(first), "--quiet", "--no-recording",
+                 "--reference", "lab", "--replicates", "1"]) == 0
+    assert _references(first) == {"lab": "lab", "ideal": "lab", "lab.ideal": "truth",
+                                   "ideal.ideal": "truth", "named_truth": "truth"}
+    again = tmp_path / "again"
+    assert main(["run", str(first / "scenario.toml"), "--out", str(again), "--quiet",
+                 "--no-recording", "--replicates", "1"]) == 0
+    assert _references(again) == _references(first)
+    # and the saved file, run again with the flag, is the same file (nothing set twice)
+    third = tmp_path / "third"
+    assert main(["run", str(again / "scenario.toml"), "--out", str(third), "--quiet",
+                 "--no-recording", "--replicates", "1", "--reference", "lab"]) == 0
+    assert (third / "scenario.toml").read_text() == (first / "scenario.toml").read_text()
+
+
+def test_reference_truth_on_the_command_line_wins_over_the_environment(tmp_path, monkeypatch):
+    """FOGBENCH_REFERENCE=lab inherited from the shell (or a parent fogbench) and
+    `--reference truth` given: the flag wins, every protocol that does not name its reference
+    is fitted on the truth, with no ideal twin; without the flag the environment's applies."""
+    from fogbench.cli import main
+    from fogbench.scenario import REFERENCE_ENV
+
+    path = tmp_path / "lab.toml"
+    path.write_text(LAB_SCENARIO.replace('reference = "lab"\n', "").replace(
+        "[lab]\nheading_error_deg = 1.0\n", ""))
+    monkeypatch.setenv(REFERENCE_ENV, "lab")
+    flag = tmp_path / "flag"
+    assert main(["run", str(path), "--out", str(flag), "--quiet", "--no-recording",
+                 "--reference", "truth", "--replicates", "1"]) == 0
+    assert _references(flag) == {"lab": "truth", "ideal": "truth"}
+    env = tmp_path / "env"
+    assert main(["run", str(path), "--out", str(env), "--quiet", "--no-recording",
+                 "--replicates", "1"]) == 0
+    assert _references(env) == {"lab": "lab", "ideal": "lab", "lab.ideal": "truth",
+                                "ideal.ideal": "truth"}
+
+
+def test_reference_lab_is_written_into_a_file_whose_protocols_are_inline_tables(tmp_path,
+                                                                                monkeypatch):
+    """`protocols = [{...}]` has no [[protocols]] header to put the line under: the text is
+    written out whole, and read back it holds the protocols' references as they ran."""
+    import tomllib
+
+    from fogbench.scenario import REFERENCE_ENV, RUNNER_SECTIONS, load_plan, load_scenario
+
+    head, _ = LAB_SCENARIO.split("[[protocols]]", 1)
+    path = tmp_path / "lab.toml"
+    path.write_text('protocols = [{ name = "lab", fit = ["a"], score = ["b"] },\n'
+                    '             { name = "ideal", reference = "truth", fit = ["a"], '
+                    'score = ["b"] }]\n' + head + '[[methods]]\nname = "model_lstsq"\n')
+    monkeypatch.setenv(REFERENCE_ENV, "lab")
+    sc = load_scenario(path, extra_sections=RUNNER_SECTIONS)
+    assert [p.get("reference") for p in tomllib.loads(sc.text)["protocols"]] == ["lab", "truth"]
+    saved = tmp_path / "saved.toml"
+    saved.write_text(sc.text)
+    monkeypatch.delenv(REFERENCE_ENV)
+    plan = load_plan(load_scenario(saved, extra_sections=RUNNER_SECTIONS))
+    assert {p.name: p.reference for p in plan.protocols} == {
+        "lab": "lab", "ideal": "truth", "lab.ideal": "truth"}

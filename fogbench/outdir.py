@@ -328,6 +328,16 @@ class Outputs:
         self.command = command
         self.pending: list[tuple[str, Path]] = []
         self.created: list[Path] = []   # folders made for the outputs: removed if it fails
+        self.claimed: dict[Path, str] = {}   # every output path checked, and the flag naming it
+
+    def _claim(self, path: Path, flag: str) -> None:
+        """Refuse two options naming one output file (the later write would replace the
+        earlier one's without a word); the same option may check its path again."""
+        key = Path(os.path.abspath(path)).resolve()
+        other = self.claimed.setdefault(key, flag)
+        if other != flag:
+            raise OutDirError(f"{path}: {other} and {flag} both write this file; give each its "
+                              "own path")
 
     def target(self, path: Path, protect: tuple = (), *, recognise=None, what: str = "output",
                flag: str = "--out") -> Path:
@@ -353,6 +363,7 @@ class Outputs:
         if path.is_dir():
             raise OutDirError(f"{flag} {path}: is a directory; {flag} names a file here")
         _check_place(path, flag)
+        self._claim(path, flag)
         if path.is_symlink() or path.exists():
             if path.is_symlink() or not path.is_file() or recognise is None or \
                     not recognise(path):
@@ -377,6 +388,7 @@ class Outputs:
         names = [marker, *(n for n, _ in members)]
         paths = {n: path / n for n in names}
         for n, p in paths.items():
+            self._claim(p, flag)
             for q in protect:
                 if _same_file(q, p):
                     raise OutDirError(f"{p}: is an input of this command; choose another output")

@@ -386,3 +386,47 @@ def test_interrupt_stops_workers_in_the_middle_of_a_replicate(tmp_path, sig, cod
     # been seen to print a BrokenPipeError as the pool is torn down: not ours to silence)
     assert "KeyboardInterrupt" not in err and "fogbench/" not in err, err
     assert _part_dirs(tmp_path) == []
+
+
+@pytest.mark.parametrize("name", ["allan.json", "allan_gyro_z_dps.png"])
+def test_two_options_naming_one_output_file_are_refused_and_nothing_is_written(tmp_path, name):
+    """allan --out D --kalibr D/allan.json: the Kalibr file and the folder's allan.json (or a
+    figure) are one file; the second write would replace the first without a word."""
+    import numpy as np
+
+    log = tmp_path / "log.csv"
+    rng = np.random.default_rng(1)
+    t = np.arange(2000) / 100.0
+    lines = ["time_s,gyro_z_dps"] + [f"{a:.2f},{b:.6e}" for a, b in
+                                     zip(t, rng.normal(0, 0.01, t.size))]
+    log.write_text("\n".join(lines) + "\n")
+    before = snapshot(tmp_path)
+    code, _, err = cli("allan", str(log), "--out", str(tmp_path / "d"), "--kalibr",
+                       str(tmp_path / "d" / name))
+    assert code == 2, err
+    assert "--out and --kalibr both write this file" in err or \
+        "--kalibr and --out both write this file" in err, err
+    assert len(err.strip().splitlines()) == 1, err
+    assert snapshot(tmp_path) == before
+
+
+def test_an_error_names_the_line_of_the_file_when_blank_lines_lie_between_rows(tmp_path):
+    """pandas skips blank lines: row k is then not line k + 2 of the file."""
+    log = tmp_path / "log.csv"
+    rows = [f"{i},0.1,{20 + i % 7},1" for i in range(100)]
+    rows[40] += "\n"                      # one blank line after row 40 (line 42)
+    rows[70] += "\n\n"                    # two after row 70
+    rows.append("100,0.1,20,x")           # the bad cell: line 2 + 100 + 3 blank lines = 105
+    log.write_text("time_s,gyro_z_dps,temp_c,table_rate_dps\n" + "\n".join(rows) + "\n")
+    assert log.read_text().splitlines()[104] == "100,0.1,20,x"     # line 105, counted by hand
+    before = snapshot(tmp_path)
+    # the reference column is read by calibrate itself (it once crashed there: TypeError)
+    code, _, err = cli("calibrate", "poly_temp", str(log), "--reference", "table_rate_dps",
+                       "--out", str(tmp_path / "m"))
+    assert code == 2, err
+    assert "line 105, column 'table_rate_dps': non-numeric value 'x'" in err, err
+    # and by the reader, for a column of the log
+    code, _, err = cli("allan", str(log), "--column",
+                       "gyro_z=table_rate_dps:dps")
+    assert code == 2 and "line 105" in err, err
+    assert snapshot(tmp_path) == before

@@ -17,7 +17,7 @@ The format is recognised from the file's content (its magic bytes; a folder with
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 __all__ = ["Rows", "FORMATS", "detect", "read_table"]
@@ -35,9 +35,14 @@ class Rows:
 
     first: int = 2
     what: str | None = None
+    #: The file's line of each row, where rows are not consecutive lines (a CSV with blank
+    #: lines, which the CSV reader skips).
+    lines: object = field(default=None, compare=False)
 
     def __call__(self, i: int) -> str:
         if self.what is None:
+            if self.lines is not None and 0 <= int(i) < len(self.lines):
+                return f"line {int(self.lines[int(i)])}"
             return f"line {self.first + int(i)}"
         return f"message {int(i) + 1} of {self.what}"
 

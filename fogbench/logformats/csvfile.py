@@ -138,7 +138,12 @@ def read_frame(path):
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
         raise LogError(f"{path}: not a readable CSV file ({str(exc).splitlines()[0]})") from None
     frame.columns = [str(c).strip() for c in frame.columns]
-    return frame, Rows(skip + 2)    # line number of data row 0 = skip + 2 (1-based, header)
+    # line number of data row 0 = skip + 2 (1-based, header), unless blank lines (skipped by
+    # the reader) lie between rows: then each row's own line, from the field count's
+    data_lines = lines[1:] if counts.size else lines
+    if data_lines.size and data_lines[-1] - data_lines[0] + 1 != data_lines.size:
+        return frame, Rows(skip + 2, lines=data_lines)
+    return frame, Rows(skip + 2)
 
 
 def comment_fields(path) -> dict:

@@ -121,6 +121,7 @@ class Log:
     sources: dict
     segments: list = field(default_factory=list)
     origin: str = ""          # what in the file was read ("topic /imu0"), "" for a CSV
+    rows: Rows = field(default_factory=Rows)   # how a message names row i ("line 12")
 
     @property
     def n(self) -> int:
@@ -395,7 +396,7 @@ def read_log(path, *, mapping=None, channels=None, fs=None, gaps: str = "refuse"
                        + (" in its longest gap-free piece" if len(segments) > 1 else "")
                        + f", this command needs at least {min_samples}")
     return Log(path=str(path), frame=frame, fs=float(fs), channels=values, units=units,
-               sources=sources, segments=segments, origin=origin)
+               sources=sources, segments=segments, origin=origin, rows=first_line)
 
 
 def _read_any(path, fmt: str | None, topic: str | None):

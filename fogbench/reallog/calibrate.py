@@ -102,7 +102,7 @@ def reference_rate(path, log: Log, column: str) -> np.ndarray:
     factor = reference_unit(column)
     if column not in log.frame.columns:
         raise LogError(f"{path}: no column {column!r} (--reference)")
-    return _numeric(path, log.frame, column, 2) * factor
+    return _numeric(path, log.frame, column, log.rows) * factor
 
 
 def _cmd_calibrate(args) -> int:
@@ -285,7 +285,7 @@ def _calibrate_ferraris(args, out: _Outputs, manifest: Path) -> int:
     unknown = sorted(set(part) - known)
     if unknown:
         i = int(np.flatnonzero(part == unknown[0])[0])
-        raise LogError(f"{args.log}: line {i + 2}, column 'part': unknown part {unknown[0]!r}; "
+        raise LogError(f"{args.log}: {log.rows(i)}, column 'part': unknown part {unknown[0]!r}; "
                        f"expected {', '.join(FERRARIS_PARTS)}")
     acc, gyro = {}, {}
     for p in FERRARIS_PARTS:

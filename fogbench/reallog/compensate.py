@@ -205,8 +205,8 @@ def _cmd_compensate(args) -> int:
                             comp[a:b] = m.compensate(_gyro_data(log, ch, slice(a, b)))
                         except (fogcomp.DivergenceError, ValueError) as exc:
                             raise LogError(f"{args.log}: the {m.name} model ({mpath}) cannot "
-                                           f"compensate {ch} (column {log.sources[ch]!r}, lines "
-                                           f"{a + 2}-{b + 1}): {exc}") from None
+                                           f"compensate {ch} (column {log.sources[ch]!r}, "
+                                           f"{log.rows(a)} to {log.rows(b - 1)}): {exc}") from None
                 for w in caught:
                     _warning(f"compensate, {ch}: {w.message}")
                 frame_new[f"{ch}_comp_{unit}"] = comp / GYRO_UNITS[unit]
@@ -218,7 +218,7 @@ def _cmd_compensate(args) -> int:
     for col, v in frame_new.items():
         bad = np.flatnonzero(~np.isfinite(v))
         if bad.size:
-            raise LogError(f"{args.log}: line {bad[0] + 2}: the compensated {col} is not finite "
+            raise LogError(f"{args.log}: {log.rows(bad[0])}: the compensated {col} is not finite "
                            f"({bad.size} rows); the log's values are beyond what the model "
                            "can apply to (check the units of the input columns)")
     frame_new = {k: _significant(v) for k, v in frame_new.items()}

@@ -432,8 +432,9 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("--web", action="store_true", help="serve it to a browser (Rerun's web "
                    "viewer) instead of opening a native window; listens on 127.0.0.1 only "
                    "unless --bind says otherwise")
-    v.add_argument("--bind", default=None, help="--web: the address to listen on (default "
-                   "127.0.0.1, this machine; 0.0.0.0 serves every network interface)")
+    v.add_argument("--bind", default=None, help="--web: the address to listen on, or a host "
+                   "name (resolved to its address) (default 127.0.0.1, this machine; only "
+                   "0.0.0.0 or :: serves every network interface)")
     v.add_argument("--web-port", type=_number(int, 1, hi=65535), default=None,
                    help="--web: the web viewer's HTTP port (default 9090)")
     v.add_argument("--grpc-port", type=_number(int, 1, hi=65535), default=None,

@@ -870,20 +870,53 @@ def _recording_and_viewer(run_dir: Path):
     return rrd, cmd
 
 
+def bind_address(bind: str) -> tuple[str, str]:
+    """``--bind``'s address (rerun wants an IP address: a host name is resolved, its first IPv4
+    address taken if it has one) and what listening on it opens the recording to. A name that
+    does not resolve is a ValueError (one line)."""
+    import ipaddress
+    import socket
+
+    try:
+        addr = ipaddress.ip_address(bind)
+        text = bind                          # an address: handed to rerun as written
+    except ValueError:
+        try:
+            found = [a[4][0] for a in socket.getaddrinfo(bind, None, proto=socket.IPPROTO_TCP)
+                     if a[0] in (socket.AF_INET, socket.AF_INET6)]
+        except (socket.gaierror, ValueError) as exc:   # ValueError: a NUL, a bad IDNA label
+            raise ValueError(f"--bind {bind!r}: not an IP address, and the name does not "
+                             f"resolve ({getattr(exc, 'strerror', None) or exc})") from None
+        if not found:
+            raise ValueError(f"--bind {bind!r}: not an IP address, and the name resolves to "
+                             "no IPv4 or IPv6 address") from None
+        text = next((a for a in found if ":" not in a), found[0])
+        addr = ipaddress.ip_address(text.split("%")[0])
+    if addr.is_unspecified:
+        scope = "EVERY network interface: anyone who can reach this machine can open it"
+    elif addr.is_loopback:
+        scope = "this machine only"
+    else:
+        scope = f"the interface with that address: anyone who can reach {addr} can open it"
+    return text, scope
+
+
 def view_web(run_dir: Path, bind: str = WEB_BIND, web_port: int = WEB_PORT,
              grpc_port: int = GRPC_PORT) -> int:
     """Serve ``run_dir/recording.rrd`` to a browser (Rerun's web viewer) until Ctrl-C; says
-    where it listens. 2: no recording; 1: no viewer installed or it failed."""
+    where it listens. 2: no recording; 1: no viewer installed or it failed. ``bind`` is an IP
+    address or a host name (resolved here: rerun wants an address); one that does not resolve
+    is a ValueError."""
+    addr, scope = bind_address(bind)
     rrd, cmd = _recording_and_viewer(run_dir)
     if cmd is None:
         return 2 if rrd is None else 1
-    host = f"[{bind}]" if ":" in bind else bind
-    scope = ("this machine only" if bind in ("127.0.0.1", "::1", "localhost")
-             else "EVERY network interface: anyone who can reach this machine can open it")
-    print(f"fogbench view: serving {rrd} at http://{host}:{web_port} (listening on {bind}, "
+    host = f"[{addr}]" if ":" in addr else addr
+    named = f"{addr}, {bind}" if addr != bind else addr
+    print(f"fogbench view: serving {rrd} at http://{host}:{web_port} (listening on {named}, "
           f"{scope}; gRPC port {grpc_port}); Ctrl-C stops it", flush=True)
     try:
-        proc = subprocess.Popen([*cmd, str(rrd), "--web-viewer", "--bind", bind,
+        proc = subprocess.Popen([*cmd, str(rrd), "--web-viewer", "--bind", addr,
                                  "--web-viewer-port", str(web_port), "--port", str(grpc_port)],
                                 stdin=subprocess.DEVNULL)
     except OSError as exc:

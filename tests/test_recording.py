@@ -426,32 +426,37 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
-@pytest.mark.skipif(not Path("/proc/net/tcp").exists(), reason="reads Linux's socket table")
-def test_view_web_listens_on_this_machine_only_and_stops_with_its_viewer(tmp_path):
-    """`fogbench view DIR --web` starts the real web viewer; the kernel's socket table shows
-    both its ports bound to 127.0.0.1 (rerun's own default is 0.0.0.0), and SIGTERM to
-    fogbench stops the viewer (the ports are released)."""
+def _rrd(run_dir: Path) -> Path:
+    """A valid recording.rrd in ``run_dir`` (one scalar), as `fogbench run` would leave one."""
+    import rerun as rr
+
+    rec = rr.RecordingStream("fogbench_view_test")
+    rec.save(str(run_dir / "recording.rrd"))
+    rec.log("x", rr.Scalars([1.0]))
+    rec.flush()
+    return run_dir / "recording.rrd"
+
+
+def _serve_and_stop(run_dir: Path, *flags: str):
+    """`fogbench view DIR --web FLAGS` with the real web viewer on two free ports, until both
+    listen; then SIGTERM to fogbench, which must stop the viewer (the ports released).
+    Returns (addresses the web port listened on, the gRPC port's, fogbench's stdout)."""
     import signal
     import sys
     import time
 
-    import rerun as rr
-
-    rec = rr.RecordingStream("fogbench_view_test")
-    rec.save(str(tmp_path / "recording.rrd"))
-    rec.log("x", rr.Scalars([1.0]))
-    rec.flush()
+    _rrd(run_dir)
     web, grpc = _free_port(), _free_port()
     exe = Path(sys.executable).with_name("fogbench")      # the console script of this venv
-    proc = subprocess.Popen([str(exe), "view", str(tmp_path), "--web",
+    proc = subprocess.Popen([str(exe), "view", str(run_dir), "--web", *flags,
                              "--web-port", str(web), "--grpc-port", str(grpc)],
-                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         deadline = time.monotonic() + 30
         while time.monotonic() < deadline and not (_listening(web) and _listening(grpc)):
-            assert proc.poll() is None, proc.stdout.read()
+            assert proc.poll() is None, proc.stdout.read() + proc.stderr.read()
             time.sleep(0.2)
-        assert _listening(web) == ["0100007F"] and _listening(grpc) == ["0100007F"]
+        addrs = _listening(web), _listening(grpc)
     finally:
         proc.send_signal(signal.SIGTERM)
         try:
@@ -459,17 +464,101 @@ def test_view_web_listens_on_this_machine_only_and_stops_with_its_viewer(tmp_pat
         except subprocess.TimeoutExpired:
             proc.kill()
             raise
-    assert "http://127.0.0.1:" in proc.stdout.read()
+    out = proc.stdout.read()
     deadline = time.monotonic() + 10
     while time.monotonic() < deadline and (_listening(web) or _listening(grpc)):
         time.sleep(0.2)
     assert not _listening(web) and not _listening(grpc)
+    return *addrs, out
 
 
-def test_view_flags_of_the_web_viewer_need_web(tmp_path):
+@pytest.mark.skipif(not Path("/proc/net/tcp").exists(), reason="reads Linux's socket table")
+def test_view_web_listens_on_this_machine_only_and_stops_with_its_viewer(tmp_path):
+    """`fogbench view DIR --web` starts the real web viewer; the kernel's socket table shows
+    both its ports bound to 127.0.0.1 (rerun's own default is 0.0.0.0), and SIGTERM to
+    fogbench stops the viewer (the ports are released)."""
+    web, grpc, out = _serve_and_stop(tmp_path)
+    assert web == ["0100007F"] and grpc == ["0100007F"]
+    assert "http://127.0.0.1:" in out
+
+
+@pytest.mark.skipif(not Path("/proc/net/tcp").exists(), reason="reads Linux's socket table")
+def test_view_web_bind_to_a_host_name_listens_on_its_address(tmp_path):
+    """`--bind localhost`: rerun wants an IP address, so fogbench resolves the name
+    (getaddrinfo) and hands it the address; both ports listen on 127.0.0.1, announced as this
+    machine only."""
+    import socket
+
+    assert socket.getaddrinfo("localhost", None, socket.AF_INET)[0][4][0] == "127.0.0.1"
+    web, grpc, out = _serve_and_stop(tmp_path, "--bind", "localhost")
+    assert web == ["0100007F"] and grpc == ["0100007F"]
+    assert "http://127.0.0.1:" in out and "this machine only" in out
+    assert "EVERY" not in out
+
+
+def test_view_web_refuses_a_bind_it_cannot_resolve_in_one_line(tmp_path, capsys, monkeypatch):
     from fogbench.cli import main
 
-    assert main(["view", str(tmp_path), "--bind", "0.0.0.0"]) == 2
+    _rrd(tmp_path)
+    monkeypatch.setattr(R, "_viewer_command", lambda: ["/opt/fake/rerun"])
+    monkeypatch.setattr(R.subprocess, "Popen", _no_popen)
+    assert main(["view", str(tmp_path), "--web", "--bind", "no-such-host.invalid"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--bind" in err and "no-such-host.invalid" in err, err
+
+
+class _ViewerThatEnds(list):
+    """A stand-in for the web viewer's process: records its arguments, ends at once."""
+
+    def __call__(self, args, **kwargs):
+        self.append(list(args))
+        return self
+
+    def wait(self, timeout=None):
+        return 0
+
+
+@pytest.mark.parametrize("bind, every", [("0.0.0.0", True), ("::", True),
+                                         ("0:0:0:0:0:0:0:0", True), ("192.0.2.7", False),
+                                         ("2001:db8::7", False), ("127.0.0.1", False),
+                                         ("::1", False)])
+def test_view_web_says_every_interface_only_for_the_unspecified_address(tmp_path, capsys,
+                                                                        monkeypatch, bind,
+                                                                        every):
+    """Only 0.0.0.0 and :: listen on every interface; a specific address is announced as
+    itself (whoever reaches that address), a loopback one as this machine only."""
+    from fogbench.cli import main
+
+    _rrd(tmp_path)
+    viewer = _ViewerThatEnds()
+    monkeypatch.setattr(R, "_viewer_command", lambda: ["/opt/fake/rerun"])
+    monkeypatch.setattr(R.subprocess, "Popen", viewer)
+    assert main(["view", str(tmp_path), "--web", "--bind", bind]) == 0
+    out = capsys.readouterr().out
+    assert ("EVERY network interface" in out) == every, out
+    assert ("this machine only" in out) == (bind in ("127.0.0.1", "::1")), out
+    assert len(viewer) == 1 and viewer[0][viewer[0].index("--bind") + 1] == bind
+    if not every:
+        assert f"listening on {bind}" in out
+
+
+def test_view_flags_of_the_web_viewer_need_web(tmp_path, capsys, monkeypatch):
+    """--bind, --web-port and --grpc-port without --web are refused (exit 2, naming the flag)
+    and no viewer is started, on a valid recording that `fogbench view` opens without them."""
+    from fogbench.cli import main
+
+    _rrd(tmp_path)
+    monkeypatch.setattr(R, "_viewer_command", lambda: ["/opt/fake/rerun"])
+    monkeypatch.setattr(R, "_has_display", lambda: True)
+    monkeypatch.setattr(R.subprocess, "Popen", _FakeViewer)
+    _FakeViewer.calls = []
+    assert main(["view", str(tmp_path)]) == 0      # the recording and the viewer are fine
+    assert len(_FakeViewer.calls) == 1
+    capsys.readouterr()
+    for flag, value in (("--bind", "0.0.0.0"), ("--web-port", "9999"), ("--grpc-port", "9999")):
+        assert main(["view", str(tmp_path), flag, value]) == 2
+        assert f"{flag}: only with --web" in capsys.readouterr().err
+    assert len(_FakeViewer.calls) == 1
 
 
 def _no_popen(*a, **k):

@@ -18,9 +18,9 @@ start temperature.
 
 A lab does not know the coil temperature: it reads a sensor. :class:`TempSensor` sits on the
 housing or the coil, follows it through its own lag, is read at its own rate with white noise
-and quantised to its resolution (e.g. 0.0625 C, a 12-bit digital sensor); the lab differences the
-readings for dT/dt. Compensators get the sensor's reading and that difference; the true coil
-temperature stays in the truth.
+and quantised to its resolution (e.g. 0.0625 C, a 12-bit digital sensor); the lab takes dT/dt as
+the least-squares slope of the readings over a window (:func:`window_slope`). Compensators get
+the sensor's reading and that slope; the true coil temperature stays in the truth.
 """
 
 from __future__ import annotations
@@ -30,10 +30,10 @@ import zlib
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.signal import lfilter
+from scipy.signal import fftconvolve, lfilter
 
 __all__ = ["ThermalHold", "ThermalRamp", "ThermalProgram", "TempSensor", "ThermalModel",
-           "Thermal", "simulate_thermal", "SENSOR_LOCATIONS"]
+           "Thermal", "simulate_thermal", "read_sensor", "window_slope", "SENSOR_LOCATIONS"]
 
 SENSOR_LOCATIONS = ("housing", "coil")
 
@@ -86,8 +86,10 @@ class TempSensor:
     noise : white noise per reading, deg C (1 sigma).
     resolution : quantisation step, deg C (0: none); 0.0625 C is a 12-bit digital sensor's LSB.
     rate : readings per second, Hz (0: one per FOG sample). Between readings the last is held.
-    rate_window : dT/dt is the central difference of the readings over this baseline, s (at least
-        two readings; one-sided at the ends of the record), as a lab differences its log.
+    rate_window : dT/dt is the least-squares slope of the readings in a window of this length
+        centred on each reading, s (``2 h + 1`` readings, ``h = max(1, round(rate_window / dt /
+        2))`` at reading spacing ``dt``), as a lab fits its log; see :func:`read_sensor` for the
+        ends of a record and for records shorter than the window.
     """
 
     location: str = "coil"
@@ -121,8 +123,8 @@ class Thermal:
 
     chamber, housing, coil : the true node temperatures.  coil_rate : true dTc/dt, which is the
     heat flux into the coil over its heat capacity, (Th - Tc) / tau_c.  sensor : what the
-    temperature sensor reads (held between readings).  sensor_rate : dT/dt differenced from the
-    readings.
+    temperature sensor reads (held between readings).  sensor_rate : dT/dt, the least-squares
+    slope of the readings over the sensor's rate window.
     """
 
     chamber: np.ndarray
@@ -177,9 +179,70 @@ def _stream(seed: int, name: str) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(zlib.crc32(name.encode()),)))
 
 
+def window_slope(val: np.ndarray, dt: float, half: int) -> np.ndarray:
+    """Least-squares slope of ``val`` (uniformly spaced by ``dt``) in the window of readings
+    ``[k - half, k + half]`` around each reading k, cut to the record: shape of ``val``, per dt.
+
+    The window is centred (it uses ``half`` readings after k: an offline fit of a log, as the
+    central difference it replaces was, not an online filter). Near the ends it is cut to the
+    readings there are (``[0, k + half]``, ``[k - half, m - 1]``), so a record of ``m <= half + 1``
+    readings gets the one slope of the whole record at every reading. Each slope is the ordinary
+    least-squares one, ``sum((t - tbar) v) / sum((t - tbar)^2)`` over its window: exact for a
+    straight line (and, in the full centred window, for a parabola), and for readings with
+    independent errors of variance s^2 its variance is ``s^2 / S_tt`` with
+    ``S_tt = dt^2 n (n^2 - 1) / 12`` for the window's n readings. ``half = 1`` in the interior is
+    the central difference ``(v[k+1] - v[k-1]) / (2 dt)``; at the ends, the adjacent one.
+    """
+    v = np.asarray(val, dtype=float)
+    m = v.size
+    out = np.zeros(m)
+    if m < 2:
+        return out
+    half = max(1, int(half))
+    v = v - v.mean()                   # the slope does not depend on an offset; keeps sums small
+
+    def from_start(x: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        # slopes of x[0 .. hi] (inclusive) for each hi >= 1, from prefix sums; index j = 0..hi
+        j = np.arange(x.size, dtype=float)
+        sv, sjv = np.cumsum(x), np.cumsum(j * x)
+        n = hi + 1.0
+        sj = hi * n / 2.0
+        sxx = n * (n * n - 1.0) / 12.0         # sum (j - jbar)^2
+        return (sjv[hi] - sj / n * sv[hi]) / sxx
+
+    k = np.arange(m)
+    left = k < half
+    right = ~left & (k > m - 1 - half)
+    mid = ~left & ~right
+    if left.any():
+        hi = np.minimum(k[left] + half, m - 1)
+        out[left] = from_start(v[: int(hi.max()) + 1], hi)
+    if right.any():
+        # in reversed time the window [k - half, m - 1] starts at 0; the slope changes sign
+        lo = np.maximum(k[right] - half, 0)
+        out[right] = -from_start(v[::-1][: m - int(lo.min())], m - 1 - lo)
+    if mid.any():
+        # a fixed centred window: sum_i i v[k + i] / sum_i i^2, i = -half..half
+        i = np.arange(-half, half + 1, dtype=float)
+        num = fftconvolve(v, i[::-1], mode="valid") if half > 64 else \
+            np.convolve(v, i[::-1], mode="valid")
+        out[mid] = num / (half * (half + 1.0) * (2.0 * half + 1.0) / 3.0)
+    return out / dt
+
+
 def read_sensor(node: np.ndarray, t: np.ndarray, sensor: TempSensor, seed: int = 0):
     """The sensor's readings of ``node`` (deg C at times t, s, uniform) and the dT/dt a lab
-    differences from them (deg C/s), both held at the sample times."""
+    fits to them (deg C/s), both held at the sample times.
+
+    dT/dt at each reading is the least-squares slope of the readings in the window of
+    ``sensor.rate_window`` centred on it (:func:`window_slope`, ``half = max(1, round(rate_window
+    / dt / 2))`` readings either side at reading spacing dt; 0 gives the central difference of
+    the neighbouring readings). At the ends of a record the window is cut to the readings there
+    are, and a record no longer than half the window (n <= half + 1 readings) gets the
+    least-squares slope of the whole record at every sample: unbiased for a linear trend, with
+    standard deviation ``s sqrt(12 / (n (n^2 - 1))) / dt`` for n readings of independent error s
+    (12 readings 1 s apart: 0.084 s / s x s, i.e. 0.1 C/min for readings that scatter by 0.02 C;
+    the window asked for is not there to average over)."""
     n = t.size
     h = t[1] - t[0] if n > 1 else 1.0
     lagged = _lag(node, h, sensor.time_constant, float(node[0])) if n > 1 else node.copy()
@@ -196,14 +259,10 @@ def read_sensor(node: np.ndarray, t: np.ndarray, sensor: TempSensor, seed: int =
         val = val + _stream(seed, "temp_sensor").standard_normal(val.size) * sensor.noise
     if sensor.resolution > 0.0:
         val = np.round(val / sensor.resolution) * sensor.resolution
-    m = val.size
-    if m < 2:
+    if val.size < 2:
         return val[held], np.zeros(n)
     half = max(1, int(round(sensor.rate_window / dtr / 2.0)))
-    k = np.arange(m)
-    hi = np.minimum(k + half, m - 1)
-    lo = np.maximum(k - half, 0)
-    rate = (val[hi] - val[lo]) / ((hi - lo) * dtr)
+    rate = window_slope(val, dtr, half)
     return val[held], rate[held]
 
 

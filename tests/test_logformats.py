@@ -5,9 +5,11 @@ malformed file refused naming file, line and field, with nothing written."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import re
+import warnings
 
 import numpy as np
 import pytest
@@ -483,3 +485,246 @@ def test_a_pipe_is_refused_not_read_whatever_the_format(tmp_path, fmt):
     os.mkfifo(fifo)
     code, err = run(["allan", fifo, *(["--format", fmt] if fmt else [])])
     assert code == 2 and "not a regular file" in err
+
+
+# ---------------------------------------------------------------------------------------------
+# Review findings (issue 25): a PX4 log's topics at the rates PX4's logger writes them, a EuRoC
+# header with a field fogbench does not know, gzip-compressed ULog / MCAP, a truncated ULog
+SENSOR_GYRO = (("uint64_t timestamp;uint64_t timestamp_sample;uint32_t device_id;float x;"
+                "float y;float z;float temperature;uint32_t error_count;"), "<QQIffffI")
+# PX4's msg/SensorCombined.msg: gyro_integral_dt is the gyro's integration period, us
+SENSOR_COMBINED = (("uint64_t timestamp;float[3] gyro_rad;uint32_t gyro_integral_dt;"
+                    "int32_t accelerometer_timestamp_relative;float[3] accelerometer_m_s2;"
+                    "uint32_t accelerometer_integral_dt;uint8_t accelerometer_clipping;"
+                    "uint8_t gyro_clipping;uint8_t accel_calibration_count;"
+                    "uint8_t gyro_calibration_count;"), "<Q3fIi3fIBBBB")
+
+
+def _write_ulog_topics(path, topics):
+    """A ULog as docs.px4.io's "ULog File Format" lays it out (see _write_ulog), holding
+    several topics: ``topics`` is a list of (name, multi_id, rows), rows a list of
+    (t_us, values) packed with the topic's format above; data messages in time order."""
+    import struct
+
+    out = bytearray(b"ULog\x01\x12\x35" + bytes([1]) + struct.pack("<Q", 1000))
+
+    def msg(kind, payload):
+        out.extend(struct.pack("<HB", len(payload), ord(kind)))
+        out.extend(payload)
+
+    formats = {"sensor_gyro": SENSOR_GYRO, "sensor_combined": SENSOR_COMBINED}
+    msg("B", bytes(16) + struct.pack("<QQQ", 0, 0, 0))
+    for name in dict.fromkeys(t[0] for t in topics):
+        msg("F", f"{name}:{formats[name][0]}".encode())
+    data = []
+    for k, (name, multi, rows) in enumerate(topics):
+        msg("A", struct.pack("<BH", multi, k) + name.encode())
+        data += [(t, k, struct.pack("<H", k) + struct.pack(formats[name][1], *v))
+                 for t, v in rows]
+    for _, _, payload in sorted(data, key=lambda m: (m[0], m[1])):
+        msg("D", payload)
+    path.write_bytes(bytes(out))
+    return path
+
+
+def _px4_log(path, *, fs=250.0, seconds=120.0, gyro_every=None, combined_every=1,
+             sigma=2e-3, seed=11):
+    """A static PX4 record: white rate noise at ``fs``; sensor_combined keeps every
+    ``combined_every``-th sample, sensor_gyro every ``gyro_every``-th, as the logger's
+    interval does (logged_topics.cpp: sensor_gyro every 1000 ms in the default profile)."""
+    n = int(fs * seconds)
+    dt_us = round(1e6 / fs)
+    t = 1_000_000 + np.arange(n, dtype=np.int64) * dt_us
+    w = np.random.default_rng(seed).normal(0, sigma, (n, 3)).astype(np.float32)
+    acc = (0.0, 0.0, -9.80665)
+    topics = [("sensor_combined", 0, [(int(t[i]), (int(t[i]), *w[i], dt_us, 0, *acc, dt_us,
+                                                     0, 0, 0, 0))
+                                      for i in range(0, n, combined_every)])]
+    if gyro_every:
+        topics.append(("sensor_gyro", 0, [(int(t[i]) + 150, (int(t[i]) + 150, int(t[i]), 7,
+                                                              *w[i], 31.5, 0))
+                                          for i in range(0, n, gyro_every)]))
+    return _write_ulog_topics(path, topics), w
+
+
+def test_a_default_px4_log_is_read_from_sensor_combined_and_n_is_the_records(tmp_path,
+                                                                            capsys):
+    """PX4's default profile: sensor_combined at full rate (250 Hz here), sensor_gyro at 1 Hz.
+    The fastest topic is read, the choice said on stderr, and N is the record's white noise by
+    hand; sensor_gyro asked for by name is read and warned of as decimated."""
+    ulg, _ = _px4_log(tmp_path / "flight.ulg", gyro_every=250)
+    code, err = run(["allan", ulg, "--out", tmp_path / "a"])
+    assert code == 0, err
+    doc = json.loads((tmp_path / "a" / "allan.json").read_text())
+    n_hand = 2e-3 / math.sqrt(250.0) * 180 / math.pi * 60         # deg/sqrt(h)
+    for ax in "xyz":
+        arw = {t["term"]: t for t in doc["columns"][f"gyro_{ax}_rps"]["noise"]["terms"]}["N"]
+        assert arw["arw_deg_rt_h"] == pytest.approx(n_hand, rel=0.05)
+    assert doc["fs_hz"] == pytest.approx(250.0, rel=1e-12)
+    stderr = capsys.readouterr().err
+    assert re.search(r"flight\.ulg: topic sensor_combined read: the fastest gyro topic "
+                     r"\(sensor_combined 250 Hz, sensor_gyro 1 Hz\)", stderr), stderr
+    assert "decimated" not in stderr
+    assert run(["allan", ulg, "--topic", "sensor_gyro", "--out", tmp_path / "g"])[0] == 0
+    stderr = capsys.readouterr().err
+    assert re.search(r"fogbench: warning: .*flight\.ulg: topic sensor_gyro looks decimated "
+                     r"\(1 Hz", stderr), stderr
+    assert "topic sensor_gyro read" not in stderr          # --topic said which: no choice
+
+
+def test_ulog_topic_choice_ties_and_decimation_by_integration_time(tmp_path, capsys):
+    # equally fast: sensor_combined (the estimator's IMU) is read, and the note says why
+    ulg, _ = _px4_log(tmp_path / "tie.ulg", seconds=2.0, gyro_every=1)
+    assert "topic sensor_combined" in read_log(ulg).describe()
+    assert re.search(r"tie\.ulg: topic sensor_combined read: as fast as sensor_gyro",
+                     capsys.readouterr().err)
+    # sensor_gyro faster than sensor_combined (logged every 4th sample): sensor_gyro is read
+    ulg, w = _px4_log(tmp_path / "fast.ulg", seconds=2.0, gyro_every=1, combined_every=4)
+    log = read_log(ulg)
+    assert "topic sensor_gyro" in log.describe()
+    np.testing.assert_array_equal(log.channels["gyro_x"], w[:, 0].astype(float))
+    # sensor_combined logged every 2nd message at 250 Hz: 125 Hz, but each message covers
+    # 4 ms of integration (gyro_integral_dt): decimated by the logger
+    ulg, _ = _px4_log(tmp_path / "half.ulg", seconds=2.0, combined_every=2)
+    with pytest.warns(UserWarning, match=r"half\.ulg: topic sensor_combined looks decimated "
+                      r"\(a message every 8 ms, each covering 4 ms"):
+        read_log(ulg)
+    ulg, _ = _px4_log(tmp_path / "full.ulg", seconds=2.0)
+    with warnings_recorded() as caught:
+        read_log(ulg)
+    assert not [c for c in caught if "decimated" in str(c.message)]
+
+
+@contextlib.contextmanager
+def warnings_recorded():
+    """Every warning raised inside, as a list (none filtered out)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        yield caught
+
+
+def test_a_euroc_header_with_an_unknown_field_is_the_header_and_names_the_field(tmp_path,
+                                                                                capsys):
+    """TUM-VI / EuRoC-like file with a column fogbench does not know: the '#timestamp' line
+    is still the header, the known columns read back, the unknown one is named with its line."""
+    from fogbench.logformats.euroc import commented_header
+
+    stamps, w, a = _record(n=500)
+    p = tmp_path / "data.csv"
+    lines = [EUROC_HEADER + ",mag_x [uT]"] + [
+        ",".join([str(int(stamps[i]))] + [repr(float(x)) for x in (*w[i], *a[i], 0.25)])
+        for i in range(len(stamps))]
+    p.write_text("\n".join(lines) + "\n")
+    log = read_log(p)
+    assert log.fs == pytest.approx(FS, rel=1e-12)
+    for k, ax in enumerate("xyz"):
+        np.testing.assert_array_equal(log.channels[f"gyro_{ax}"], w[:, k])
+        np.testing.assert_array_equal(log.channels[f"acc_{ax}"], a[:, k])
+    err = capsys.readouterr().err
+    assert re.search(r"fogbench: \S*data\.csv: line 1: header field 'mag_x \[uT\]' not known"
+                     r".*left out", err), err
+    assert commented_header(p.read_bytes(), 1) == 0                # the header's offset
+
+
+def test_a_misspelt_euroc_field_is_named_then_the_missing_column_refused(tmp_path, capsys):
+    stamps, w, a = _record(n=500)
+    p = _write_euroc(tmp_path / "data.csv", stamps, w, a,
+                     header=EUROC_HEADER.replace("w_RS_S_z [rad s^-1]", "w_RS_S_zz [rad s^-1]"))
+    before = set(tmp_path.rglob("*"))
+    code, err = run(["allan", p, "--columns", "gyro_z", "--out", tmp_path / "out"])
+    assert code == 2 and "\n" not in err
+    assert re.search(r"data\.csv: missing column for gyro_z", err), err
+    assert "data.csv: line 1: header field 'w_RS_S_zz [rad s^-1]' not known" in \
+        capsys.readouterr().err
+    assert set(tmp_path.rglob("*")) == before
+
+
+def test_a_gzip_compressed_ulog_reads_as_the_ulog(tmp_path):
+    import gzip
+
+    n = 600
+    t_us = 5_000_000 + np.arange(n, dtype=np.int64) * 2500
+    w = np.random.default_rng(4).normal(0, 2e-3, (n, 3)).astype(np.float32)
+    raw = _write_ulog(tmp_path / "flight.ulg", t_us, w).read_bytes()
+    gz = tmp_path / "flight.ulg.gz"
+    gz.write_bytes(gzip.compress(raw))
+    log = read_log(gz)
+    assert log.fs == pytest.approx(400.0, rel=1e-12)
+    for k, ax in enumerate("xyz"):
+        np.testing.assert_array_equal(log.channels[f"gyro_{ax}"], w[:, k].astype(float))
+
+
+def _cut_ulog(tmp_path, n=400, keep_of_last=20):
+    """A sensor_gyro ULog whose last data message (41 bytes: 3 header + 2 msg_id + 36 data)
+    keeps only ``keep_of_last`` bytes, as a log cut by a power loss."""
+    t_us = 5_000_000 + np.arange(n, dtype=np.int64) * 2500
+    w = np.random.default_rng(6).normal(0, 2e-3, (n, 3)).astype(np.float32)
+    full = _write_ulog(tmp_path / "full.ulg", t_us, w).read_bytes()
+    cut = tmp_path / "cut.ulg"
+    cut.write_bytes(full[:len(full) - 41 + keep_of_last])
+    return cut, w
+
+
+@pytest.mark.parametrize("keep", [1, 20, 40])    # inside the header, the payload, 1 byte short
+def test_a_truncated_ulog_is_read_up_to_the_cut_and_warned_of(tmp_path, keep):
+    cut, w = _cut_ulog(tmp_path, keep_of_last=keep)
+    with pytest.warns(UserWarning, match=r"cut\.ulg: truncated: the file ends inside a "
+                      r"message.*read up to there: 399 messages of sensor_gyro"):
+        log = read_log(cut)
+    np.testing.assert_array_equal(log.channels["gyro_z"], w[:399, 2].astype(float))
+    with warnings_recorded() as caught:                 # the whole file: no warning
+        read_log(tmp_path / "full.ulg")
+    assert not [c for c in caught if "truncated" in str(c.message)]
+
+
+def test_a_truncated_ulog_is_warned_of_on_the_command_line(tmp_path, capsys):
+    cut, _ = _cut_ulog(tmp_path)
+    assert run(["allan", cut, "--out", tmp_path / "a"])[0] == 0
+    assert re.search(r"fogbench: warning: .*cut\.ulg: truncated.*399 messages of sensor_gyro",
+                     capsys.readouterr().err)
+
+
+def _gzipped(tmp_path, case):
+    import gzip
+
+    stamps, w, a = _record(n=300)
+    if case == "gzip mcap":
+        bag = _write_bag(tmp_path / "bag", stamps, w, a)
+        inner = next(p for p in bag.iterdir() if p.suffix == ".mcap")
+        out = tmp_path / "imu.mcap.gz"
+        out.write_bytes(gzip.compress(inner.read_bytes()))
+        import shutil
+
+        shutil.rmtree(bag)
+        return out, [], (r"imu\.mcap\.gz: a gzip-compressed MCAP file; rosbags reads bags and "
+                         r"MCAP files only uncompressed: gunzip it first \(gunzip -k "
+                         r"imu\.mcap\.gz, which writes imu\.mcap\)")
+    if case == "gzip db3 named .db3":
+        bag = _write_bag(tmp_path / "bag", stamps, w, a, storage="sqlite3")
+        inner = next(p for p in bag.iterdir() if p.suffix == ".db3")
+        out = tmp_path / "imu.db3"
+        out.write_bytes(gzip.compress(inner.read_bytes()))
+        import shutil
+
+        shutil.rmtree(bag)
+        return out, [], (r"imu\.db3: a gzip-compressed ROS 2 bag \(SQLite \.db3\); .*gunzip -c "
+                         r"imu\.db3 > imu\.uncompressed\.db3")
+    if case == "gzip of a broken ulog":
+        out = tmp_path / "f.ulg.gz"
+        out.write_bytes(gzip.compress(b"ULog\x01\x12\x35\x01" + bytes(3)))
+        return out, [], r"f\.ulg\.gz: a gzip-compressed file, not a readable ULog"
+    raise KeyError(case)
+
+
+@pytest.mark.parametrize("case", ["gzip mcap", "gzip db3 named .db3", "gzip of a broken ulog"])
+def test_gzip_compressed_bags_are_refused_saying_to_gunzip(tmp_path, case):
+    from fogbench.cli import main
+
+    path, flags, match = _gzipped(tmp_path, case)
+    before = {p: p.stat().st_mtime_ns for p in tmp_path.rglob("*")}
+    code, err = run(["allan", path, "--out", tmp_path / "out", *flags])
+    assert code == 2
+    assert re.search(match, err), err
+    assert "\n" not in err
+    assert {p: p.stat().st_mtime_ns for p in tmp_path.rglob("*")} == before
+    assert main(["allan", str(path), *flags]) == 2

@@ -12,20 +12,28 @@ and names the place in the file.
 - PX4 ULog ``sensor_gyro`` / ``sensor_combined`` (:mod:`.ulog`, ``pyulog``).
 
 The format is recognised from the file's content (its magic bytes; a folder with
-``metadata.yaml``), or given with ``--format``.
+``metadata.yaml``), or given with ``--format``; a gzip-compressed file by the magic bytes of
+what it holds (a ``.ulg.gz`` is read, a compressed bag or MCAP refused saying to gunzip it).
 """
 
 from __future__ import annotations
 
+import gzip
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
-__all__ = ["Rows", "FORMATS", "detect", "read_table"]
+__all__ = ["Rows", "FORMATS", "detect", "read_table", "gzip_payload"]
 
 FORMATS = ("csv", "euroc", "rosbag", "ulog")
 
 _MAGIC = {b"\x89MCAP0\r\n": "rosbag", b"ULog\x01\x12\x35": "ulog", b"SQLite format 3\x00":
           "rosbag", b"#ROSBAG V2.0": "rosbag"}
+#: What each magic names, and the file name it has uncompressed.
+_KIND = {b"\x89MCAP0\r\n": ("MCAP file", ".mcap"), b"ULog\x01\x12\x35": ("ULog file", ".ulg"),
+         b"SQLite format 3\x00": ("ROS 2 bag (SQLite .db3)", ".db3"),
+         b"#ROSBAG V2.0": ("ROS 1 bag", ".bag")}
+_GZIP = b"\x1f\x8b"
 
 
 @dataclass(frozen=True)
@@ -60,10 +68,43 @@ def detect(path) -> str:
             head = f.read(16)
     except OSError:
         return "csv"                 # the CSV reader names what is wrong with the path
+    if head.startswith(_GZIP):   # a compressed CSV, or a compressed ULog, MCAP or bag
+        head = _gunzipped_head(p)
     for magic, fmt in _MAGIC.items():
         if head.startswith(magic):
             return fmt
     return "csv"
+
+
+def _gunzipped_head(p: Path) -> bytes:
+    """The first 16 bytes a gzip-compressed file holds (empty when it cannot be read: the CSV
+    reader then says what is wrong with it)."""
+    try:
+        with gzip.open(p, "rb") as f:
+            return f.read(16)
+    except (OSError, EOFError, zlib.error):
+        return b""
+
+
+def gzip_payload(path) -> tuple[str, str] | None:
+    """None when ``path`` is not a gzip-compressed regular file; else (what it holds, e.g.
+    "MCAP file", and the command that decompresses it beside it)."""
+    p = Path(path)
+    if not p.is_file():
+        return None
+    try:
+        with open(p, "rb") as f:
+            if f.read(2) != _GZIP:
+                return None
+    except OSError:
+        return None
+    head = _gunzipped_head(p)
+    what, suffix = next((v for m, v in _KIND.items() if head.startswith(m)), ("file", ""))
+    if p.name.endswith(".gz") and len(p.name) > 3:
+        how = f"gunzip -k {p.name}, which writes {p.name[:-3]}"
+    else:
+        how = f"gunzip -c {p.name} > {p.stem}.uncompressed{suffix or p.suffix}"
+    return what, how
 
 
 def read_table(path, fmt: str, topic: str | None):

@@ -100,7 +100,7 @@ def read_frame(path):
         raise LogError(f"{path}: line {line}, column {col}: not UTF-8 text (byte "
                        f"0x{raw[exc.start]:02x}); save the file as UTF-8") from None
     skip = _leading_comments(raw)
-    hash_header = commented_header(raw, skip)
+    hash_header = commented_header(raw, skip, path)
     if hash_header is not None:     # EuRoC / TUM-VI: the '#' line is the header
         raw = raw[:hash_header] + raw[hash_header + 1:]
         skip -= 1

@@ -3,11 +3,17 @@
 MAV dataset, Burri et al. 2016, IJRR 35(10); TUM-VI, Schubert et al. 2018, IROS). The CSV
 reader takes such a line as the header and these functions give its columns our names
 (``w_RS_S_x [rad s^-1]`` -> ``gyro_x_rps``); the same ``NAME [UNIT]`` form is read in any CSV
-header."""
+header.
+
+A ``#`` line whose first field is ``timestamp`` (``#timestamp [ns],...``) just before the data
+is the header, whatever its other fields: a field fogbench does not know (``mag_x [uT]``, a
+misspelt name) is left out with a note naming it and its line, as a CSV's unknown column is
+not read (``--column`` can still map it), rather than the whole line taken for a comment."""
 
 from __future__ import annotations
 
 import re
+import sys
 
 __all__ = ["bracketed_column", "commented_header"]
 
@@ -50,10 +56,21 @@ def bracketed_column(col: str) -> str | None:
     return None
 
 
-def commented_header(raw: bytes, skip: int) -> int | None:
+#: Our own header names (``fogbench.logformats.table``): known without brackets.
+_OURS = re.compile(r"^(?:(?:gyro|acc|accel)_[xyz](?:_.*)?|time(?:_.*)?|temp(?:_.*)?)$")
+_TIMESTAMP = re.compile(r"^\s*timestamp(?:\s*\[[^\]]*\])?\s*$", re.I)
+
+
+def _known(field: str) -> bool:
+    return bracketed_column(field) is not None or bool(_OURS.match(field.strip()))
+
+
+def commented_header(raw: bytes, skip: int, path=None) -> int | None:
     """The byte offset of the last of the ``skip`` leading comment lines when it is a EuRoC
-    header (every field ``NAME [UNIT]`` with a known NAME, as many fields as the next line),
-    else None."""
+    header, else None: its first field ``timestamp`` (``#timestamp [ns]``; fields it does not
+    know are noted on stderr, naming ``path`` when given, and left to the reader, which does
+    not use them), or every field ``NAME [UNIT]`` with a known NAME and as many fields as the
+    next line."""
     if skip == 0:
         return None
     pos = 0
@@ -64,7 +81,19 @@ def commented_header(raw: bytes, skip: int) -> int | None:
         return None
     line = raw[pos + 1:end].decode("utf-8", "replace").rstrip("\r")
     fields = line.split(",")
-    if len(fields) < 2 or not all(bracketed_column(f) for f in fields):
+    if len(fields) < 2:
+        return None
+    if _TIMESTAMP.match(fields[0]):
+        unknown = [f.strip() for f in fields[1:] if not _known(f)]
+        if unknown:
+            where = f"{path}: line {skip}" if path is not None else f"line {skip}"
+            names = ", ".join(repr(f) for f in unknown)
+            print(f"fogbench: {where}: header field{'s' if len(unknown) > 1 else ''} {names} "
+                  "not known (a EuRoC NAME [UNIT] like 'w_RS_S_x [rad s^-1]', or ours like "
+                  "'gyro_x_rps'): left out; --column maps a column by its name",
+                  file=sys.stderr)
+        return pos
+    if not all(bracketed_column(f) for f in fields):
         return None
     stop = raw.find(b"\n", end + 1)
     nxt = raw[end + 1:stop if stop >= 0 else len(raw)]

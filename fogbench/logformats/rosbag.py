@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import Rows
+from . import Rows, gzip_payload
 
 __all__ = ["read_imu_topic", "IMU_TYPES"]
 
@@ -36,6 +36,10 @@ def read_imu_topic(path, topic: str | None):
     from rosbags.typesys import Stores, get_typestore
 
     p = Path(path)
+    packed = gzip_payload(p)
+    if packed is not None:
+        raise _error(f"{path}: a gzip-compressed {packed[0]}; rosbags reads bags and MCAP files "
+                     f"only uncompressed: gunzip it first ({packed[1]}) and give that file")
     try:
         reader = AnyReader([p], default_typestore=get_typestore(Stores.ROS2_HUMBLE))
         reader.open()

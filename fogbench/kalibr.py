@@ -207,8 +207,8 @@ def kalibr_text(values: dict, fs: float, source: str, *, topic: str = "/imu0",
     lines = _header(source, fs, inflate_density, inflate_walk, "Kalibr imu.yaml", command)
     for key, value, notes in _entries(values, inflate_density, inflate_walk):
         lines += [f"# {n}" for n in notes]
-        lines.append(f"{key}: {value:.9g}" if value is not None else f"# {key}:")
-    lines += [f"rostopic: {topic}", f"update_rate: {fs:.9g}"]
+        lines.append(f"{key}: {_num9(value)}" if value is not None else f"# {key}:")
+    lines += [f"rostopic: {topic}", f"update_rate: {_num(fs)}"]
     return "\n".join(lines) + "\n"
 
 
@@ -216,18 +216,19 @@ def openvins_text(values: dict, fs: float, source: str, *,
                   topic: str = "/imu0", inflate_density: float = 1.0,
                   inflate_walk: float = 1.0, command: str = "allan") -> str:
     """OpenVINS' ``kalibr_imu_chain.yaml`` (its ``model: kalibr`` form, identity intrinsics:
-    the noise only). Its first line is OpenCV's ``%YAML:1.0``, which OpenVINS needs."""
-    lines = ["%YAML:1.0", *_header(source, fs, inflate_density, inflate_walk,
-                                   "OpenVINS kalibr_imu_chain.yaml", command), "", "imu0:",
+    the noise only). It starts ``%YAML 1.0``, its comments, ``---`` (see ``_OPENCV_YAML``):
+    OpenCV, which OpenVINS reads it with, and PyYAML load it as it is."""
+    lines = [_OPENCV_YAML, *_header(source, fs, inflate_density, inflate_walk,
+                                    "OpenVINS kalibr_imu_chain.yaml", command), "---", "imu0:",
              "  T_i_b:"] + [f"    - [{', '.join('1.0' if i == j else '0.0' for j in range(4))}]"
                             for i in range(4)]
     for key, value, notes in _entries(values, inflate_density, inflate_walk):
         lines += [f"  # {n}" for n in notes]
-        lines.append(f"  {key}: {value:.9g}" if value is not None else f"  # {key}:")
+        lines.append(f"  {key}: {_num9(value)}" if value is not None else f"  # {key}:")
     ident = [f"    - [{', '.join('1.0' if i == j else '0.0' for j in range(3))}]"
              for i in range(3)]
     zero = ["    - [0.0, 0.0, 0.0]"] * 3
-    lines += [f"  rostopic: {topic}", "  time_offset: 0.0", f"  update_rate: {fs:.9g}",
+    lines += [f"  rostopic: {topic}", "  time_offset: 0.0", f"  update_rate: {_num(fs)}",
               '  model: "kalibr"', "  Tw:", *ident, "  R_IMUtoGYRO:", *ident, "  Ta:", *ident,
               "  R_IMUtoACC:", *ident, "  Tg:", *zero]
     return "\n".join(lines) + "\n"
@@ -387,6 +388,12 @@ def _num(v: float) -> str:
     if "." not in mant:
         mant += ".0"
     return mant + (f"e{exp}" if exp else "")
+
+
+def _num9(v: float) -> str:
+    """A noise value to 9 significant digits (far below its own uncertainty), written as
+    :func:`_num` writes a float (always with a dot, so PyYAML reads a number)."""
+    return _num(float(f"{float(v):.9g}"))
 
 
 def _matrix(indent: str, m) -> list[str]:

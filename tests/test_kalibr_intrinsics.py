@@ -326,3 +326,83 @@ def test_bad_input_is_refused():
             intrinsics_from_ferraris(cal, gyro_si=bad)
     with pytest.raises(ValueError, match="acc_si"):
         intrinsics_from_ferraris(cal, acc_si=0)
+
+
+# ---------------------------------------------------------------------------------------------
+# The command line: calibrate ferraris --kalibr / --openvins
+def _calibrated_session(tmp_path):
+    """imucal's real Ferraris session (raw counts) calibrated by fogbench and written out by
+    compensate: the same session in physical units, which a calibration of its own must find
+    already calibrated (scale factors 1, no misalignment, no g-sensitivity, no bias)."""
+    from helpers import need_realdata
+    from test_reallog import REAL, run
+
+    session = REAL / "imucal_ferraris" / "annotated_session.csv"
+    need_realdata(session)
+    cols = ("acc_x=acc_x:au,acc_y=acc_y:au,acc_z=acc_z:au,gyro_x=gyr_x:au,gyro_y=gyr_y:au,"
+            "gyro_z=gyr_z:au")
+    assert run(["calibrate", "ferraris", session, "--fs", "204.8", "--angle-deg", "-360",
+                "--g", "9.81", "--column", cols, "--out", tmp_path / "cal"])[0] == 0
+    assert run(["compensate", tmp_path / "cal", session, "--out", tmp_path / "si.csv"])[0] == 0
+    si = ",".join([f"acc_{a}=acc_{a}_cal_mps2:mps2" for a in "xyz"]
+                  + [f"gyro_{a}=gyro_{a}_cal_dps:dps" for a in "xyz"])
+    return tmp_path / "si.csv", si, run
+
+
+def test_calibrate_ferraris_writes_tool_files_that_a_calibrated_session_finds_identity(tmp_path):
+    log, cols, run = _calibrated_session(tmp_path)
+    code, err = run(["calibrate", "ferraris", log, "--fs", "204.8", "--angle-deg", "-360",
+                     "--g", "9.81", "--column", cols, "--out", tmp_path / "again",
+                     "--kalibr", tmp_path / "imu.yaml", "--openvins", tmp_path / "chain.yaml",
+                     "--imu-topic", "/imu1"])
+    assert code == 0, err
+    k = yaml.safe_load((tmp_path / "imu.yaml").read_text())["imu0"]
+    o = yaml.safe_load((tmp_path / "chain.yaml").read_text())["imu0"]
+    # The Ferraris estimate on its own output is the identity only to about 2e-6 here: the
+    # calibrated session's rotations integrate to -360 deg to about 1e-6 (test_reallog's
+    # check), and the scale factors come from those integrals. The raw session's matrices are
+    # 900 counts per rad/s and misaligned by about 1e-2, so the tolerance still tells the
+    # identity from any mix-up of rows, transposes or units.
+    for m in (k["gyroscopes"]["M"], k["accelerometers"]["M"], o["Tw"], o["Ta"],
+              k["gyroscopes"]["C_gyro_i"], o["R_IMUtoGYRO"]):
+        np.testing.assert_allclose(m, np.eye(3), atol=1e-5)
+    for m in (o["Tg"], k["gyroscopes"]["A"]):     # (rad/s)/(m/s^2)
+        np.testing.assert_allclose(m, np.zeros((3, 3)), atol=1e-7)
+    assert o["rostopic"] == k["rostopic"] == "/imu1"
+    assert o["update_rate"] == pytest.approx(204.8)
+    assert is_own(tmp_path / "imu.yaml") and is_own(tmp_path / "chain.yaml")
+
+
+def test_calibrate_ferraris_tool_files_are_refused_for_raw_counts_and_other_methods(tmp_path):
+    from helpers import need_realdata
+    from test_reallog import REAL, run
+
+    session = REAL / "imucal_ferraris" / "annotated_session.csv"
+    need_realdata(session)
+    cols = ("acc_x=acc_x:au,acc_y=acc_y:au,acc_z=acc_z:au,gyro_x=gyr_x:au,gyro_y=gyr_y:au,"
+            "gyro_z=gyr_z:au")
+    code, err = run(["calibrate", "ferraris", session, "--fs", "204.8", "--angle-deg", "-360",
+                     "--column", cols, "--out", tmp_path / "cal", "--kalibr",
+                     tmp_path / "imu.yaml"])
+    assert code == 2 and "raw counts" in err and len(err.strip().splitlines()) >= 1, err
+    code, err = run(["calibrate", "poly_temp", session, "--out", tmp_path / "p", "--openvins",
+                     tmp_path / "c.yaml"])
+    assert code == 2 and "--openvins: only with calibrate ferraris" in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+def test_the_noise_files_write_numbers_pyyaml_reads_as_numbers():
+    """PyYAML (Kalibr reads its imu.yaml with it) takes '1e-05' for a string: a noise
+    density of one significant digit must still load as a float."""
+    from fogbench.kalibr import kalibr_text, openvins_text
+
+    values = {("gyroscope", "N"): NoiseValue(1e-5, "identified", "gyro_z_rps", {}),
+              ("gyroscope", "K"): NoiseValue(2e-7, "identified", "gyro_z_rps", {}),
+              ("accelerometer", "N"): NoiseValue(1e-3, "identified", "acc_z_mps2", {}),
+              ("accelerometer", "K"): NoiseValue(3e-5, "identified", "acc_z_mps2", {})}
+    for text in (kalibr_text(values, 200.0, "log.csv"), openvins_text(values, 200.0, "log.csv")):
+        doc = yaml.safe_load(text)
+        doc = doc.get("imu0", doc)
+        assert doc["gyroscope_noise_density"] == 1e-5
+        assert doc["accelerometer_random_walk"] == 3e-5
+        assert isinstance(doc["update_rate"], float)

@@ -83,6 +83,12 @@ def add_commands(subparsers) -> None:
     c.add_argument("--angle-deg", type=float, help="ferraris: angle of each rotation, deg")
     c.add_argument("--g", type=float, default=G0, help="ferraris: local gravity in m/s^2 (not "
                    "in g), 9.7 to 9.9 (default 9.80665; imucal uses 9.81)")
+    c.add_argument("--kalibr", metavar="IMU.yaml", help="ferraris: also write the triad's "
+                   "intrinsics as Kalibr's scale-misalignment block (M, A, C_gyro_i), SI")
+    c.add_argument("--openvins", metavar="kalibr_imu_chain.yaml", help="ferraris: also write "
+                   "them as OpenVINS' kalibr_imu_chain.yaml (Tw, R_IMUtoGYRO, Ta, R_IMUtoACC, Tg)")
+    c.add_argument("--imu-topic", default="/imu0", help="rostopic written in --kalibr and "
+                   "--openvins (default /imu0)")
     c.add_argument("--overwrite", action="store_true", help="replace a model written by an "
                    "earlier fogbench calibrate (recognised by its format key; nothing else)")
     _common(c)

@@ -126,6 +126,10 @@ def _cmd_calibrate(args) -> int:
     out.target(manifest, (args.log,), recognise=_is_model_manifest, what="model file")
     if method == "ferraris":
         return _calibrate_ferraris(args, out, manifest)
+    for flag in ("kalibr", "openvins"):
+        if getattr(args, flag, None):
+            raise LogError(f"--{flag}: only with calibrate ferraris (the triad's intrinsics); "
+                           f"the noise terms come from fogbench allan LOG --{flag}")
     cls = fogcomp.get_method(method)
     refs = [x for x in (args.reference, args.rate_dps, args.static or None) if x is not None]
     if cls.supervised and len(refs) != 1:
@@ -273,10 +277,16 @@ def _calibrate_ferraris(args, out: _Outputs, manifest: Path) -> int:
     if args.angle_deg is None:
         raise LogError("calibrate ferraris: give --angle-deg, the known angle of each rotation "
                        "(signed by the right-hand rule; imucal's default is -360)")
+    tools = _intrinsics_targets(out, args)
     chans = [f"{k}_{a}" for k in ("acc", "gyro") for a in "xyz"]
     log = read_log(args.log, **_source(args), mapping=args.column, channels=chans, fs=args.fs,
                    gaps="refuse", time_tolerance=args.time_tolerance, min_samples=2)
     _note(log.describe())
+    raw = [ch for ch in chans if log.units[ch] == "au"]
+    if tools and raw:
+        raise LogError(f"{args.log}: column {log.sources[raw[0]]!r} is in raw counts (au); "
+                       "Kalibr and OpenVINS read rad/s and m/s^2 (sensor_msgs/Imu), so "
+                       f"--{tools[0][0]} needs every column in a physical unit")
     if "part" not in log.frame.columns:
         raise LogError(f"{args.log}: missing column 'part' (x_p, x_a, ..., z_rot), which "
                        "says which position or rotation each row belongs to")
@@ -302,13 +312,45 @@ def _calibrate_ferraris(args, out: _Outputs, manifest: Path) -> int:
                    "columns": {ch: {"column": log.sources[ch], "unit": log.units[ch]}
                                for ch in chans},
                    "calibration": cal.to_dict()})
+    intr = None
+    if tools:
+        from ..kalibr import INTRINSICS_TEXTS, intrinsics_from_ferraris
+
+        intr = intrinsics_from_ferraris(cal)
     try:
         out.write_text(manifest, json.dumps(doc, indent=2, allow_nan=False))
+        for kind, path in tools:
+            out.write_text(path, INTRINSICS_TEXTS[kind](intr, log.fs, str(args.log),
+                                                        topic=args.imu_topic))
         out.commit()
     finally:
         out.discard()
-    k = cal.gyro_scale * DEG
+    # the gyro scale factors: counts per deg/s for raw counts, else output per true rate in
+    # the same unit (1 when the unit is right); the biases in the gyro columns' unit
+    factor = {a: GYRO_UNITS[log.units[f"gyro_{a}"]] for a in "xyz"}
+    raw_counts = all(factor[a] is None for a in "xyz")
+    kg = [cal.gyro_scale[j] * (DEG if raw_counts else 1.0) for j in range(3)]
+    bg = [cal.gyro_bias[j] / (factor[a] or 1.0) for j, a in enumerate("xyz")]
+    unit = "/".join(dict.fromkeys(log.units[f"gyro_{a}"] for a in "xyz"))
     print(f"calibrate ferraris: {log.n} samples at {log.fs:g} Hz, g = {args.g} m/s^2, rotations "
-          f"{args.angle_deg:g} deg; gyro scale {k.round(4).tolist()} per deg/s, bias "
-          f"{cal.gyro_bias.round(4).tolist()}; wrote {manifest}")
+          f"{args.angle_deg:g} deg; gyro scale {[float(f'{x:.7g}') for x in kg]} "
+          + ("counts per deg/s" if raw_counts else f"{unit} per {unit}")
+          + f", bias {[float(f'{x:.4g}') for x in bg]} {unit}; wrote {manifest}")
+    for kind, path in tools:
+        print(f"wrote {path} ({kind}: the frame I is the accelerometer triad's, "
+              f"{intr.angle_deg():.3g} deg from the calibration's body frame; noise keys left "
+              "to fill in from fogbench allan)")
     return 0
+
+
+def _intrinsics_targets(out: _Outputs, args) -> list:
+    """--kalibr FILE, --openvins FILE of calibrate ferraris, checked before any work (never a
+    file fogbench did not write, never an input, never another output): [(kind, path)]."""
+    from ..kalibr import is_own
+
+    if not args.imu_topic.startswith("/") or any(c.isspace() for c in args.imu_topic):
+        raise LogError(f"--imu-topic {args.imu_topic!r}: expected a ROS topic name such as "
+                       "/imu0")
+    return [(kind, out.target(Path(p), (args.log,), recognise=is_own, what=f"{kind} file",
+                              flag=f"--{kind}"))
+            for kind in ("kalibr", "openvins") if (p := getattr(args, kind, None))]

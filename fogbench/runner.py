@@ -253,14 +253,14 @@ def run_scenario(path, progress=None, methods: list[str] | None = None, replicat
         plan = replace(plan, methods=tuple(m for m in plan.methods if m.label in methods))
     axis_j = sc.axes.index(plan.axis)
     truths = {} if truths is None else truths
-    data = {}
+    data, seeds = {}, {}
     for i, run in enumerate(sc.runs):
         cached = truths.get(run.name)
         say(f"simulate {run.name} ({i + 1}/{len(sc.runs)}, {run.duration:g} s)"
             + (f", replicate {replicate}" if replicate else "")
             + (" (table motion reused)" if cached is not None else ""))
-        data[run.name] = simulate_run(sc.rig, run, seed=run_seed(sc, plan, replicate, i),
-                                      truth=cached)
+        seeds[run.name] = run_seed(sc, plan, replicate, i)
+        data[run.name] = simulate_run(sc.rig, run, seed=seeds[run.name], truth=cached)
         truths[run.name] = data[run.name].truth
 
     # the lab's references of every run, once (protocols with reference = "lab")
@@ -268,7 +268,10 @@ def run_scenario(path, progress=None, methods: list[str] | None = None, replicat
     if any(p.reference == "lab" for p in plan.protocols):
         from sim.lab import LabKnowledge, lab_reference
 
-        lab_refs = {name: lab_reference(rd.truth, sc.table, plan.lab or LabKnowledge())
+        # (an accelerometer triad, gravity_source = "accelerometer", draws its noise from the
+        # run's own seed, sim.lab.accelerometer_reading)
+        lab_refs = {name: lab_reference(rd.truth, sc.table, plan.lab or LabKnowledge(),
+                                        seed=seeds[name])
                     for name, rd in data.items()}
     scored: list[Scored] = []
     fits: dict = {}

@@ -502,9 +502,15 @@ def _table_cfg(tbl: _Table) -> TableConfig:
         settle_time=tbl.get("settle_time_s", "float", 5.0, lo=0.5, hi=600.0),
         turn_accel=math.radians(tbl.get("turn_accel_dps2", "float", 200.0, lo=1.0, hi=5000.0)),
         earth_rate=tbl.get("earth_rate", "bool", True),
+        # the table's imperfections, default 0 (a perfect table); class values and their
+        # sources: sim.lab.CLASS_VALUES (axis verticality 5 arcsec for a navigation-grade
+        # turntable, Ruya-T ry119; rate error ~100 ppm, measured, XinLiGH/TurntableSpeedAndPosition)
         turn_axis_error=tbl.get("turn_axis_error_arcsec", "float", 0.0, lo=-3600.0,
                                 hi=3600.0) * _ARCSEC,
         level_error=_level(tbl),
+        # limit 1e4 ppm (1 %): beyond it no rate table (nor a hobby turntable) is used to
+        # calibrate a gyro, so a value there is a typo
+        rate_error=tbl.get("rate_error_ppm", "float", 0.0, lo=-1e4, hi=1e4) * 1e-6,
     )
     tbl.done()
     return cfg
@@ -1336,12 +1342,38 @@ def _lab_knowledge(t: _Table):
         radius_error=t.get("radius_error_mm", "float", 0.0, lo=-100.0, hi=100.0) * 1e-3,
         encoder_resolution=t.get("encoder_resolution_arcsec", "float", 0.0, lo=0.0,
                                  hi=3600.0) * arcsec,
-        rate_source=t.get("rate_source", "str", "command", choices={"command", "encoder"}))
+        rate_source=t.get("rate_source", "str", "command", choices={"command", "encoder"}),
+        # the accelerometer triad (gravity_source = "accelerometer"), defaults 0; class values
+        # and sources in sim.lab.CLASS_VALUES (tactical MEMS: Xsens MTi-1, 0.03 mg bias
+        # instability, 120 ug/sqrt(Hz)). Limits: 1e5 ug (0.1 g, beyond a MEMS part's raw
+        # offset, BMI160 +-60 mg), 1e5 ppm (10 %), 1e4 ug/sqrt(Hz) (MEMS parts: 75-160).
+        gravity_source=t.get("gravity_source", "str", "command",
+                             choices={"command", "accelerometer"}),
+        acc_bias=tuple(v * 1e-6 * U.G0 for v in _triple(t, "acc_bias_ug", 1e5)),
+        acc_scale_factor=tuple(v * 1e-6 for v in _triple(t, "acc_scale_factor_ppm", 1e5)),
+        acc_noise_density=t.get("acc_noise_ug_rt_hz", "float", 0.0, lo=0.0, hi=1e4)
+        * 1e-6 * U.G0)
     if lab.encoder_resolution and lab.rate_source != "encoder":
         raise t.err("encoder_resolution_arcsec", "applies only with rate_source = \"encoder\" "
                     "(the commanded rate has no encoder steps)")
+    if lab.gravity_source != "accelerometer":
+        for key in ("acc_bias_ug", "acc_scale_factor_ppm", "acc_noise_ug_rt_hz"):
+            if t.has(key):
+                raise t.err(key, "applies only with gravity_source = \"accelerometer\" (the "
+                            "commanded attitude has no accelerometer)")
     t.done()
     return lab
+
+
+def _triple(t: _Table, key: str, limit: float) -> tuple[float, float, float]:
+    """A per-axis key: one number (every axis) or [x, y, z], each within +-limit."""
+    if isinstance(t.data.get(key), list):
+        v = t.get(key, "floats", lo=-limit, hi=limit)
+        if len(v) != 3:
+            raise t.err(key, f"expected one number or [x, y, z], got {len(v)} values")
+        return v[0], v[1], v[2]
+    v = t.get(key, "float", 0.0, lo=-limit, hi=limit)
+    return v, v, v
 
 
 MAX_SWEEP = 64

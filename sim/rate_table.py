@@ -59,7 +59,10 @@ class TableConfig:
     turn_axis_error : the turntable's axis tilted from the platform normal toward the platform's
     x, rad (an orthogonality error: the FOG cones by up to twice it as the turntable turns).
     level_error : the base tilted about world x and y, rad (a table not levelled).
-    A lab (sim/lab.py) believes both are zero.
+    rate_error : the turntable's rate error beyond its servo's, dimensionless: the table is
+    driven at (1 + rate_error) times the rate (and angle) it is commanded, a timebase or encoder
+    scale error of the rate loop; ``Truth.turn_rate_cmd`` stays the commanded (set) rate.
+    A lab (sim/lab.py) believes all three are zero.
     """
 
     radius: float = 0.0
@@ -74,6 +77,7 @@ class TableConfig:
     earth_rate: bool = True
     turn_axis_error: float = 0.0
     level_error: tuple[float, float] = (0.0, 0.0)
+    rate_error: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -305,6 +309,7 @@ def simulate_truth(segments, fs: float, cfg: TableConfig = TableConfig(), tilt0:
     settle_samples = max(1, int(round(cfg.settle_time * fs)))
     total = sum(seg.duration for seg in segments)
     fast_s, done, tilt, last_rate = 0.0, 0.0, tilt0, 0.0
+    drive = 1.0 + cfg.rate_error   # the turntable runs at drive x its command (1.0: exactly)
     for seg in segments:
         ns = int(round(seg.duration * fs))
         if abs(ns - seg.duration * fs) > 1e-6 * max(1.0, ns):
@@ -317,17 +322,17 @@ def simulate_truth(segments, fs: float, cfg: TableConfig = TableConfig(), tilt0:
 
         if isinstance(seg, Hold) and ns > settle_samples + 1:
             tc, rc, tilt_after = commands(n=settle_samples * k)
-            vmax = roller.run(tc, rc)
+            vmax = roller.run(tc, rc * drive)
             rest = ns - settle_samples
             if vmax < SETTLE_RATE_TOL and rc[-1] == 0.0:
                 roller.repeat_last(rest, rest / fs)
                 fast_s += rest / fs
             else:
                 tc, rc, _ = commands()
-                roller.run(tc[settle_samples * k:], rc[settle_samples * k:])
+                roller.run(tc[settle_samples * k:], rc[settle_samples * k:] * drive)
         else:
             tc, rc, tilt_after = commands()
-            roller.run(tc, rc)
+            roller.run(tc, rc * drive)
         tilt, last_rate = tilt_after, float(rc[-1])
         done += seg.duration
         if progress is not None:
@@ -349,9 +354,9 @@ def simulate_truth(segments, fs: float, cfg: TableConfig = TableConfig(), tilt0:
         specific_force=fmean / G0, gravity=gravity,
         tilt=firsts[:, sl["tilt_angle"]][:, 0], turn=firsts[:, sl["turn_angle"]][:, 0],
         tilt_rate=means[:, sl["tilt_rate"]][:, 0], turn_rate=means[:, sl["turn_rate"]][:, 0],
-        tilt_cmd=cfirst[:, 0], turn_rate_cmd=cmean[:, 1],
+        tilt_cmd=cfirst[:, 0], turn_rate_cmd=cmean[:, 1] / drive,
         fog_quat=fog_quat, tilt_quat=firsts[:, sl["tilt_quat"]],
         turntable_quat=firsts[:, sl["turntable_quat"]], fog_pos=firsts[:, sl["fog_pos"]],
         physics_steps=roller.steps, settled_fast_path_s=fast_s,
-        turn_rate_cmd_first=cfirst[:, 1],
+        turn_rate_cmd_first=cfirst[:, 1] / drive,
     )

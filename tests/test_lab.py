@@ -437,3 +437,170 @@ def test_reference_lab_is_written_into_a_file_whose_protocols_are_inline_tables(
     plan = load_plan(load_scenario(saved, extra_sections=RUNNER_SECTIONS))
     assert {p.name: p.reference for p in plan.protocols} == {
         "lab": "lab", "ideal": "truth", "lab.ideal": "truth"}
+
+
+# --- the table's rate error beyond its servo, and the accelerometer triad (issue 24) ----------
+
+UG = 1e-6                       # g per ug
+
+
+def test_a_rate_error_beyond_the_servo_shows_as_the_scale_factor_a_lab_fit_finds():
+    """A table whose rate is (1 + e) times its set rate (e = 100 ppm, the size measured between a
+    turntable's rate and angle calibrations, sim.lab.CLASS_VALUES): on two settled plateaus
+    (+-20 deg/s) a perfect gyro's z output (the truth) regressed on the lab's reference (the set
+    rate plus the Earth's) has slope 1 + e, the scale-factor error a lab books, by hand: truth
+    = (1 + e) w + Omega_z, reference = w + Omega_z. With e = 0 the slope is 1 to the servo's
+    error (the same fit on a perfect table)."""
+    w = math.radians(20.0)
+    segs = [ConstantRate(20.0, w), ConstantRate(20.0, -w), Hold(5.0)]
+
+    def slope(e):
+        cfg = TableConfig(rate_error=e)
+        truth = simulate_truth(segs, 10.0, cfg)
+        ref, _ = lab_reference(truth, cfg)
+        ok = (np.abs(np.abs(truth.turn_rate_cmd) - w) < 1e-12) & \
+            (np.abs(truth.turn_rate - truth.turn_rate_cmd * (1 + e)) < 1e-7)
+        assert ok.sum() > 250
+        assert np.all(truth.turn_rate_cmd[ok] == pytest.approx(np.sign(truth.turn_rate_cmd[ok])
+                                                               * w, abs=1e-12))
+        a, _ = np.polyfit(ref[ok, 2], truth.rate[ok, 2], 1)
+        return a
+
+    e = 100e-6
+    assert slope(0.0) - 1.0 == pytest.approx(0.0, abs=1e-6)
+    assert slope(e) - 1.0 == pytest.approx(e, abs=1e-6)
+
+
+def test_the_rate_error_is_a_table_key_in_ppm_refused_beyond_its_limit(tmp_path):
+    from fogbench.scenario import RUNNER_SECTIONS, ScenarioError, load_scenario
+
+    path = tmp_path / "lab.toml"
+    path.write_text(LAB_SCENARIO.replace("heading_deg = 90.0", "heading_deg = 90.0\n"
+                                         "rate_error_ppm = 100.0"))
+    assert load_scenario(path, extra_sections=RUNNER_SECTIONS).table.rate_error == \
+        pytest.approx(1e-4)
+    path.write_text(LAB_SCENARIO.replace("heading_deg = 90.0", "heading_deg = 90.0\n"
+                                         "rate_error_ppm = 20000.0"))
+    with pytest.raises(ScenarioError, match=r"lab\.toml.*\[table\] key 'rate_error_ppm'.*"
+                                            r"<= 10000.0, got 20000.0"):
+        load_scenario(path, extra_sections=RUNNER_SECTIONS)
+
+
+@pytest.fixture(scope="module")
+def static_record():
+    """A level table at rest for 600 s at 10 Hz (6000 samples), the FOG on the turntable axis."""
+    cfg = TableConfig(latitude=LAT)
+    return cfg, simulate_truth([Hold(600.0, tilt=0.0)], 10.0, cfg)
+
+
+def test_a_triad_without_errors_reads_the_true_specific_force_exactly(program):
+    cfg, truth = program
+    lab = LabKnowledge(gravity_source="accelerometer")
+    _, f = lab_reference(truth, cfg, lab, seed=11)
+    assert np.array_equal(f, truth.specific_force)
+    # and not the commanded attitude's gravity: the servo's sag is in it
+    _, f_cmd = lab_reference(truth, cfg)
+    assert np.abs(f - f_cmd).max() > 1e-5
+    with pytest.raises(ValueError, match="seed"):
+        lab_reference(truth, cfg, lab)
+
+
+def test_a_triads_bias_and_noise_density_are_recovered_from_a_static_record(static_record):
+    """Bias b per axis (Xsens MTi-1 class, 30 ug, and others), noise density N = 120 ug/sqrt(Hz)
+    (MTi-1, sim.lab.CLASS_VALUES), scale factor k: the reading minus (1 + k) f_true has mean b
+    within 4 standard errors N sqrt(fs) / sqrt(n), and its sample variance s^2 puts N inside its
+    chi-square interval: (n - 1) s^2 / (N^2 fs) ~ chi2(n - 1), 99.9 % two-sided, by hand."""
+    from scipy.stats import chi2
+
+    from fogcomp.units import G0
+
+    cfg, truth = static_record
+    b_ug, k_ppm, n_ug = np.array([30.0, -250.0, 1000.0]), np.array([0.0, 300.0, -500.0]), 120.0
+    lab = LabKnowledge(gravity_source="accelerometer", acc_bias=tuple(b_ug * UG * G0),
+                       acc_scale_factor=tuple(k_ppm * 1e-6), acc_noise_density=n_ug * UG * G0)
+    _, f = lab_reference(truth, cfg, lab, seed=2024)
+    resid_ug = (f - truth.specific_force * (1 + k_ppm * 1e-6)) / UG
+    n, fs = resid_ug.shape[0], truth.fs
+    assert n == 6000
+    se = n_ug * math.sqrt(fs) / math.sqrt(n)             # 1.55 ug
+    assert np.all(np.abs(resid_ug.mean(axis=0) - b_ug) < 4 * se)
+    s2 = resid_ug.var(axis=0, ddof=1)
+    lo, hi = chi2.ppf([0.0005, 0.9995], n - 1)
+    n_lo, n_hi = np.sqrt((n - 1) * s2 / hi / fs), np.sqrt((n - 1) * s2 / lo / fs)
+    assert np.all((n_lo < n_ug) & (n_ug < n_hi)), (n_lo, n_hi)
+    # the three axes draw their own streams, and another seed draws another record
+    assert abs(np.corrcoef(resid_ug[:, 0], resid_ug[:, 1])[0, 1]) < 4 / math.sqrt(n)
+    _, f2 = lab_reference(truth, cfg, lab, seed=2025)
+    assert not np.allclose(f2, f)
+    # a bias of 1000 ug is 10 standard errors off 0: the check can fail
+    assert abs(resid_ug[:, 2].mean()) > 100 * se
+
+
+def test_a_fit_on_the_triad_moves_the_g_sensitivity_as_the_bias_algebra_says(program):
+    """Drift model d = c + k_y f_y + k_z f_z + q f_z^2 (k = (-0.7, 0.5), q = 2, any units) on
+    the program's static positions (gravity along +-z, y and x: four distinct points, the four
+    coefficients identified; the x positions are in the fit and carry no g term); a least-
+    squares fit of (1, f_y, f_z, f_z^2) once on the commanded attitude's gravity and once on a
+    triad with bias beta = (2, -3, 5) mg. By hand, f_true = f_triad - beta:
+    d = (c - k . beta + q beta_z^2) + k_y f_triad_y + (k_z - 2 q beta_z) f_triad_z
+    + q f_triad_z^2, so the triad's fit has k_z lower by 2 q beta_z (2 x 2 x 5 mg = 0.02),
+    k_y and q unchanged and c lower by k . beta - q beta_z^2, against the command's fit, which
+    is the model but for the servo's sag (~6e-5 rad), which the triad sees and the command does
+    not."""
+    from fogcomp.units import G0
+
+    cfg, truth = program
+    ok = _settled(truth) & (truth.t < 180.0) & (truth.turn_rate_cmd == 0)
+    assert ok.sum() > 600
+    k, q, c = np.array([-0.7, 0.5]), 2.0, 0.05
+    ft = truth.specific_force[ok]
+    d = c + ft[:, 1:] @ k + q * ft[:, 2] ** 2
+    beta = np.array([2e-3, -3e-3, 5e-3])                 # g
+    _, f_cmd = lab_reference(truth, cfg)
+    _, f_acc = lab_reference(truth, cfg, LabKnowledge(gravity_source="accelerometer",
+                                                      acc_bias=tuple(beta * G0)), seed=3)
+
+    def fit(f):
+        f = f[ok]
+        coef, *_ = np.linalg.lstsq(np.column_stack([np.ones(f.shape[0]), f[:, 1:],
+                                                    f[:, 2] ** 2]), d, rcond=None)
+        return coef
+
+    cmd, acc = fit(f_cmd), fit(f_acc)
+    sag = np.abs(f_cmd - truth.specific_force)[ok].max()   # g: the attitude's error, ~6e-5
+    assert 1e-5 < sag < 1e-4
+    tol = 4 * sag * (np.abs(k).sum() + q + c)             # the command fit's own error
+    assert cmd == pytest.approx([c, *k, q], abs=tol)
+    expect = np.array([-(k @ beta[1:]) + q * beta[2] ** 2, 0.0, -2 * q * beta[2], 0.0])
+    assert expect[2] == pytest.approx(-0.02)
+    assert acc - cmd == pytest.approx(expect, abs=tol)
+    assert abs(expect[2]) > 10 * tol                      # the shift is resolved: it can fail
+    # against the exact algebra on the triad itself (no sag term): to rounding
+    _, f_true = lab_reference(truth, cfg, LabKnowledge(gravity_source="accelerometer"), seed=3)
+    assert acc - fit(f_true) == pytest.approx(expect, abs=1e-10)
+
+
+def test_the_triads_keys_load_with_their_units_and_are_refused_where_they_change_nothing(
+        tmp_path):
+    from fogbench.scenario import RUNNER_SECTIONS, ScenarioError, load_plan, load_scenario
+    from fogcomp.units import G0
+
+    def plan(lab_keys):
+        path = tmp_path / "lab.toml"
+        path.write_text(LAB_SCENARIO.replace("heading_error_deg = 1.0", lab_keys))
+        return load_plan(load_scenario(path, extra_sections=RUNNER_SECTIONS))
+
+    lab = plan('gravity_source = "accelerometer"\nacc_bias_ug = [30.0, -20.0, 10.0]\n'
+               'acc_scale_factor_ppm = 300.0\nacc_noise_ug_rt_hz = 120.0').lab
+    assert lab.acc_bias == pytest.approx((30e-6 * G0, -20e-6 * G0, 10e-6 * G0))
+    assert lab.acc_scale_factor == pytest.approx((3e-4,) * 3)
+    assert lab.acc_noise_density == pytest.approx(120e-6 * G0)
+    with pytest.raises(ScenarioError, match="acc_bias_ug.*gravity_source"):
+        plan("acc_bias_ug = 30.0")
+    with pytest.raises(ScenarioError, match=r"acc_bias_ug.*\[x, y, z\], got 2"):
+        plan('gravity_source = "accelerometer"\nacc_bias_ug = [30.0, 1.0]')
+    with pytest.raises(ScenarioError, match=r"lab\.toml.*\[lab\] key 'acc_noise_ug_rt_hz'.*"
+                                            r"<= 10000.0, got 20000.0"):
+        plan('gravity_source = "accelerometer"\nacc_noise_ug_rt_hz = 20000.0')
+    with pytest.raises(ScenarioError, match="gravity_source"):
+        plan('gravity_source = "imu"')

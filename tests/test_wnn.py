@@ -308,14 +308,20 @@ def test_target_offset_aligns_window():
 
 # ---------------------------------------------------------------------------------------------
 # Fast paths against their plain twins
-def test_fast_batch_gradient_matches_wnn_loss_and_grad():
+@pytest.mark.parametrize("w0", [6.0, 0.0, 2.5])
+@pytest.mark.parametrize("chunk", [32, 1024])
+def test_fast_batch_gradient_matches_wnn_loss_and_grad(monkeypatch, w0, chunk):
+    """The chunked tangent-half-angle batch loss against the plain formulas, over several
+    chunks and a partial one (70 windows in chunks of 32) and in one."""
+    from fogcomp.methods import wnn
     from fogcomp.methods.wnn import _loss_grad_t
 
+    monkeypatch.setattr(wnn, "_CHUNK", chunk)
     rng = np.random.default_rng(5)
     X, t = rng.normal(size=(70, 5)), rng.normal(size=70)
     params = _params(rng)
-    l1, g1 = wnn_loss_and_grad(X, t, *params)
-    l2, g2 = _loss_grad_t(np.ascontiguousarray(X.T), t, *params, w0=6.0)
+    l1, g1 = wnn_loss_and_grad(X, t, *params, w0=w0)
+    l2, g2 = _loss_grad_t(np.ascontiguousarray(X.T), t, *params, w0=w0)
     assert l2 == pytest.approx(l1, rel=1e-12)
     for a, b in zip(g1, g2):
         np.testing.assert_allclose(b, a, rtol=1e-10, atol=1e-14)
@@ -435,3 +441,197 @@ def test_per_record_normalisation_follows_a_constant_offset(constant_rate_fits):
 def test_validate_refuses_every_bad_hyperparameter_without_data(kwargs, name):
     with pytest.raises(ValueError, match=name):
         WaveletNeuralNetwork(**kwargs)._validate()
+
+
+# ---------------------------------------------------------------------------------------------
+# Issue 23: the fast batch training against the implementation it replaced
+def _reference_loss_grad_t(Xs, t, W, w_out, a, b, w0):
+    """Batch loss and gradient as ``fogcomp.methods.wnn._loss_grad_t`` computed them before
+    issue 23 (copied verbatim): one pass over all windows, exp, cos and sin evaluated
+    separately, in the (hidden, samples) layout."""
+    n = t.shape[0]
+    u = (W / a).T @ Xs
+    u -= (b / a)[:, None]                           # (l, N)
+    wu = w0 * u
+    c = np.cos(wu)
+    sn = np.sin(wu, out=wu)
+    g = u * u
+    g *= -0.5
+    np.exp(g, out=g)
+    h = g * c
+    e = w_out @ h
+    e -= t
+    loss = 0.5 * float(e @ e) / n
+    g_out = (h @ e) / n
+    c *= u
+    sn *= w0
+    c += sn
+    c *= g                                          # -psi'(u)
+    c *= e
+    gz = c
+    gz *= (-w_out / (a * n))[:, None]               # (1/n) dE_n/dz, (l, N)
+    g_w = Xs @ gz.T
+    g_b = -gz.sum(axis=1)
+    gz *= u
+    g_a = -gz.sum(axis=1)
+    return loss, (g_w, g_out, g_a, g_b)
+
+
+def _reference_train(self, Xs, t, params, loss_grad_t=None):
+    """``WaveletNeuralNetwork._train`` before issue 23 (copied, divergence check left out),
+    on :func:`_reference_loss_grad_t` or ``loss_grad_t``."""
+    loss_grad_t = loss_grad_t or _reference_loss_grad_t
+    eta1, eta2, eta3 = float(self.eta1), float(self.eta2), float(self.eta3)
+    w0 = float(self.w0)
+    max_iter = int(self.max_iter)
+    prev = [p.copy() for p in params]            # theta_(k-1); no momentum at k = 0
+    losses = np.empty(max_iter + 1)
+    for it in range(max_iter + 1):
+        loss, grads = loss_grad_t(Xs, t, *params, w0=w0)
+        losses[it] = loss
+        if it == max_iter:
+            break
+        if it > 0:                                 # eqs. 13-14
+            if loss < losses[it - 1]:
+                eta1 *= self.lr_inc
+                eta2 *= self.lr_inc
+            elif loss > losses[it - 1]:
+                eta1 *= self.lr_dec
+                eta2 *= self.lr_dec
+        rates = (eta1, eta1, eta2, eta2)           # W, w_out: eta1 (eq. 9); a, b: eta2 (eq. 10)
+        new = [p - r * g + eta3 * (p - q)          # eqs. 11-12
+               for p, r, g, q in zip(params, rates, grads, prev)]
+        prev, params = params, new
+    return params, losses
+
+
+def _one_ulp_train(self, Xs, t, params):
+    """:func:`_reference_train` with every gradient multiplied by 1 + 2^-52 (a change of at
+    most one unit in the last place): how far the former implementation moves by itself."""
+    def loss_grad(*args, **kwargs):
+        loss, grads = _reference_loss_grad_t(*args, **kwargs)
+        return loss, tuple(g * (1.0 + 2.0**-52) for g in grads)
+
+    return _reference_train(self, Xs, t, params, loss_grad)
+
+
+def _fits(monkeypatch, data, trains, **kwargs):
+    """The same fit with each of ``trains`` (None: the current implementation)."""
+    out = []
+    for train in trains:
+        with monkeypatch.context() as mp:
+            if train is not None:
+                mp.setattr(WaveletNeuralNetwork, "_train", train)
+            out.append(WaveletNeuralNetwork(random_state=42, **kwargs).fit(data))
+    return out
+
+
+def _weights(m):
+    return (m.input_weights_, m.output_weights_, m.scales_, m.translations_)
+
+
+def _curve_rel(a, b):
+    return float(np.max(np.abs(b.loss_curve_ / a.loss_curve_ - 1.0)))
+
+
+def _weights_rel(a, b):
+    return max(float(np.max(np.abs(p - q)) / np.max(np.abs(q)))
+               for p, q in zip(_weights(b), _weights(a)))
+
+
+@pytest.fixture(scope="module")
+def issue23_record():
+    """5,000 samples: 4,996 windows, four full chunks of the fast loss and a partial one."""
+    _, raw = _narrowband_record(7, 5000)
+    return GyroData(rate=raw, fs=FS)
+
+
+def test_fast_training_matches_the_former_implementation(monkeypatch, issue23_record):
+    """Issue 23: the fast batch training against the former implementation (the verbatim
+    copies above), 200 iterations, fixed seed, with the learning rates held (lr_inc = 1;
+    every other setting the default).
+
+    Tolerance: 1e-9 relative on every point of the loss curve and on every fitted weight
+    (relative to the largest weight of its kind). The two compute the same formulas with
+    different rounding (cos and sin from one tangent of the half angle, sums taken chunk by
+    chunk and by matrix products): loss and gradient differ by a few 1e-16 relative per
+    evaluation. With the rates held the descent is contractive and carries this through
+    200 iterations unamplified: measured 8e-16 on the curve and 2e-15 on the weights, the
+    same as a one-ulp change of the former implementation's own gradient (4e-16, 2e-15).
+    1e-9 is thus a million times the rounding, and still fails an error far smaller than a
+    wrong formula (measured: halving the sine term of psi' moves the curve by 0.5; an error
+    of 1e-6 relative in dE/da alone by 6e-9)."""
+    ref, new = _fits(monkeypatch, issue23_record, [_reference_train, None], lr_inc=1.0)
+    assert new.n_iter_ == ref.n_iter_ == 200
+    assert np.all(np.diff(ref.loss_curve_) <= 0)                   # the contractive case
+    np.testing.assert_allclose(new.loss_curve_, ref.loss_curve_, rtol=1e-9, atol=0)
+    for got, want in zip(_weights(new), _weights(ref)):
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-9 * np.max(np.abs(want)))
+
+
+def test_fast_training_with_default_rates_is_within_the_former_rounding(monkeypatch,
+                                                                        issue23_record):
+    """The same comparison with every setting the default (the rates grow by lr_inc while
+    the loss falls). Then the descent repeatedly grows its rates until a step overshoots (21
+    rises of the loss in 200 iterations on this record), and within each such episode a
+    difference grows 10-20 times per iteration: no change of rounding at all can keep the
+    loss curve within 1e-9 there. Measured on this record: the former implementation with a
+    one-ulp change of its gradient moves by 2.1e-10 on the curve and 1.8e-12 on the weights,
+    the fast training by 1.3e-9 and 1.1e-11. (On the bench's 50,000-sample record, the former
+    implementation moves by 5e-8 on the curve, around iterations 64-75, under a 1e-15 change
+    of its gradient; the fast training by 6e-8 there and 3e-10 on the weights.)
+
+    Tolerance: each within 100 times the former implementation's own one-ulp movement (the
+    ratio was 0.6-6 on the six records measured, as the end size depends on the direction
+    of the first difference, not only on its size), and the final loss within 1e-9 relative
+    (the end of training is a minimum; measured 2e-12 here and on the bench record). An
+    error of 1e-6 relative in dE/da alone moves the curve by 3e-6, 15,000 times the one-ulp
+    movement."""
+    ref, ulp, new = _fits(monkeypatch, issue23_record, [_reference_train, _one_ulp_train, None])
+    assert np.sum(np.diff(ref.loss_curve_) > 0) > 5                # the episodes are there
+    own_curve, own_weights = _curve_rel(ref, ulp), _weights_rel(ref, ulp)
+    assert 0 < own_curve < 1e-6
+    assert _curve_rel(ref, new) <= 100 * own_curve
+    assert _weights_rel(ref, new) <= 100 * max(own_weights, 1e-15)
+    assert new.loss_curve_[-1] == pytest.approx(ref.loss_curve_[-1], rel=1e-9)
+
+
+def _reference_auto_level_criterion(x):
+    """:func:`auto_level`'s criterion before issue 23 (copied): one periodogram per level,
+    the octave bands by boolean masks."""
+    from scipy import signal
+
+    from fogcomp.methods.wnn import _split, max_level
+
+    w = pywt.Wavelet("db6")
+    n = x.shape[0]
+    lmax = max_level(n, w)
+    f, px = signal.periodogram(x, fs=1.0, window="hann", detrend="constant")
+    floor = float(np.median(px[(f >= 0.25) & (f < 0.5)]))
+    j_max = max(1, int(math.floor(math.log2(n))))
+    crit = np.empty(lmax)
+    for m in range(1, lmax + 1):
+        _, r = _split(x, w, m, "symmetric")
+        _, pr = signal.periodogram(r, fs=1.0, window="hann", detrend="constant")
+        med = np.full(j_max, np.nan)
+        for j in range(1, j_max + 1):
+            band = (f >= 2.0 ** -(j + 1)) & (f < 2.0 ** -j)
+            if band.sum() >= 4:
+                med[j - 1] = np.median(pr[band])
+        med = med[m - 1:]
+        med = med[np.isfinite(med)]
+        crit[m - 1] = float(med.max()) / floor if med.size else 0.0
+    return crit
+
+
+@pytest.mark.parametrize("n, batch", [(300, None), (4097, None), (20000, None), (20000, 50000)])
+def test_auto_level_criterion_is_unchanged(monkeypatch, n, batch):
+    """The batched periodograms and band slices give the former criterion exactly (also
+    when the levels are split over several calls: ``batch``)."""
+    from fogcomp.methods import wnn
+
+    if batch is not None:
+        monkeypatch.setattr(wnn, "_PSD_BATCH", batch)
+    rng = np.random.default_rng(n)
+    x = np.cumsum(rng.normal(size=n)) * 0.02 + rng.normal(size=n)
+    np.testing.assert_array_equal(auto_level(x)[1], _reference_auto_level_criterion(x))

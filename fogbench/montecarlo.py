@@ -366,6 +366,7 @@ def _over_seeds(docs, prot: str, runs: list[str], better: str, than: str, metric
     counted in ``failed_starts``."""
     direction = "higher" if metric.endswith("_pct") else "lower"
     ps, pooled, ks = [], {better: [], than: []}, set()
+    per_rep: dict = {better: [], than: []}
     for d in docs:
         a = _seed_values(d, prot, runs, better, metric)
         b = _seed_values(d, prot, runs, than, metric)
@@ -373,12 +374,16 @@ def _over_seeds(docs, prot: str, runs: list[str], better: str, than: str, metric
             return None
         ks.add(len(a))
         ps.append(p_better(a, b, direction))
+        for lab, v in ((better, a), (than, b)):
+            per_rep[lab].append([None if not math.isfinite(x) else float(x) for x in v])
         pooled[better].extend(a.tolist())
         pooled[than].extend(b.tolist())
     out = {"p_better_start": S.summarize(ps).as_dict(), "seeds_per_replicate": None,
            "failed_starts": {lab: int(np.sum(~np.isfinite(np.asarray(v, dtype=float))))
                              for lab, v in pooled.items()},
-           "starts": {lab: len(v) for lab, v in pooled.items()}}
+           "starts": {lab: len(v) for lab, v in pooled.items()},
+           # every start, replicate by replicate (the claim figure's paired starts)
+           "per_replicate": per_rep}
     for lab, vals in pooled.items():
         v = np.asarray(vals, dtype=float)
         v = v[np.isfinite(v)]
@@ -386,6 +391,17 @@ def _over_seeds(docs, prot: str, runs: list[str], better: str, than: str, metric
                      "q95": float(np.quantile(v, 0.95)), "n": int(v.size)} if v.size else None)
     out["seeds_per_replicate"] = ks.pop() if len(ks) == 1 else None
     return out
+
+
+def _claim_values(docs, a, b, o, vals, ovals) -> dict:
+    """A claim's numbers replicate by replicate (None: failed), for its figure: the metric of
+    the method (``better``), the comparator (``than``) and the oracle, and the improvements
+    the verdict and the oracle's interval are taken over."""
+    def col(v):
+        return [None if not math.isfinite(x) else float(x) for x in np.asarray(v, dtype=float)]
+
+    return {"replicate": [int(d["replicate"]) for d in docs], "better": col(a), "than": col(b),
+            "oracle": col(o), "improvement_pct": col(vals), "oracle_improvement_pct": col(ovals)}
 
 
 #: The metrics whose lab-minus-ideal difference the report gives: lower is better in each, and
@@ -501,7 +517,8 @@ def aggregate(docs: list[dict], sc, plan) -> dict:
                     _is_num(d["protocols"].get(prot.name, {}).get("runs", {}).get(runs[0], {})
                             .get(c.than, {}).get(c.metric)) for d in docs):
                 continue
-            ovals = _improvement(_over_runs(docs, prot.name, runs, oracle_label, c.metric), b)
+            o = _over_runs(docs, prot.name, runs, oracle_label, c.metric)
+            ovals = _improvement(o, b)
             v = S.claim_verdict(vals, c.min_pct, c.max_pct,
                                 oracle=ovals if oracle_bounds else None, better="higher")
             pair = S.paired_difference(a, b, better="higher" if c.metric.endswith("_pct")
@@ -513,6 +530,10 @@ def aggregate(docs: list[dict], sc, plan) -> dict:
                            "oracle_improvement": S.summarize(ovals).as_dict(),
                            "oracle_bounds_claim": oracle_bounds, "oracle": oracle_label,
                            "paired": pair.as_dict(),
+                           # oracle minus comparator, in the metric's unit (the claim figure)
+                           "oracle_paired": S.paired_difference(
+                               o, b, better=pair.better).as_dict(),
+                           "per_replicate": _claim_values(docs, a, b, o, vals, ovals),
                            "over_seeds": _over_seeds(docs, prot.name, runs, c.better, c.than,
                                                      c.metric)})
 

@@ -23,6 +23,8 @@ from fogcomp.units import DPH, DPS  # noqa: E402
 from .fmt import (KEY_METRICS, ci_text, decimation, fmt, md_table,  # noqa: E402
                   metrics_table, p_better_text)
 from .io import atomic_write_bytes, atomic_write_text, run_arrays, save_figure as _save, versions  # noqa: E402
+from .claim_figures import (SETUP_HEADING, draw_claim_figures, open_on_answer,  # noqa: E402
+                            verdict_link)
 from .maps import side  # noqa: E402
 from .outdir import as_final, check_out_dir, discard_part, new_part_dir, replace_dir  # noqa: E402
 from .runner import ScenarioResult, TERM_NAMES, thermal_segments, write_metrics  # noqa: E402
@@ -732,6 +734,7 @@ def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_d
             if figure("start distributions", fig_starts, res, montecarlo,
                       tmp / "figures" / "starts.png"):
                 fig_names[("starts",)] = "figures/starts.png"
+            fig_names.update(draw_claim_figures(montecarlo, tmp / "figures", figure))
         if map_doc is not None:
             from .map_report import fig_map
 
@@ -745,8 +748,9 @@ def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_d
         write_metrics(tmp / "metrics.json", doc)
         text = render_report(res, fig_names, decim)
         if montecarlo is not None:
-            text = _insert_mc(text, render_montecarlo(res, montecarlo, fig_names))
-            text = _with_takeaway(text, montecarlo)
+            # the answer first: takeaway, verdicts, evidence; then the set-up
+            text = open_on_answer(text, render_montecarlo(res, montecarlo, fig_names),
+                                  montecarlo, fig_names)
         else:
             bands = render_bands(res, None)
             if bands:
@@ -953,7 +957,7 @@ def render_montecarlo(res: ScenarioResult, mc: dict, fig_names: dict) -> str:
               "**untestable** (the claim asks more than the oracle, the best model of the "
               "deterministic error terms, can give here). The oracle's improvement is shown "
               "beside every claim.", ""]
-        for c in mc["claims"]:
+        for i, c in enumerate(mc["claims"]):
             lo = "" if c["min_pct"] is None else f"{c['min_pct']:g}"
             hi = "" if c["max_pct"] is None else f"{c['max_pct']:g}"
             rng = f"{lo}..{hi} %"
@@ -963,14 +967,17 @@ def render_montecarlo(res: ScenarioResult, mc: dict, fig_names: dict) -> str:
             first = c["paired"].get("first_better")
             L.append(f"- {c['source']}: \"{c['text']}\" — `{c['protocol']}`{tag}: "
                      f"{c['better']} vs {c['than']} on {c['metric']}: "
-                     f"{ci_text(sm, '_pct')} % (claim {rng}): **{c['verdict']}**"
-                     + (f" ({side(c)} the claim)" if side(c) else "") + "; the claim "
+                     f"{ci_text(sm, '_pct')} % (claim {rng}): "
+                     + verdict_link(c, fig_names.get(("claim", i))) + "; the claim "
                      f"held in {held} of replicates; {c['better']} better than {c['than']} in "
                      f"{'–' if first is None else f'{100 * first:.0f} %'} of replicates. "
                      f"Oracle over {c['than']}: {ci_text(osm, '_pct')} %"
                      + ("" if c["oracle_bounds_claim"] else
                         f" (not a bound here: {c['better']} also filters noise)") + "."
                      + over_seeds_text(c))
+            if ("claim", i) in fig_names:
+                L += ["", f"  ![claim {i}: {c['better']} over {c['than']}]"
+                          f"({fig_names[('claim', i)]})", ""]
         L.append("")
     if mc.get("lab_cost"):
         L += ["### What the lab's references cost", "",
@@ -1131,6 +1138,8 @@ def _mean_runs(pd: dict, label: str, metric: str):
 
 
 def _insert_mc(text: str, section: str) -> str:
-    """Put the Monte Carlo section before the first protocol's single-replicate tables."""
-    i = text.find("\n## Protocol ")
+    """Put the Monte Carlo section before the first protocol's single-replicate tables (before
+    the set-up when the report opens on the answer)."""
+    i = text.find(f"\n{SETUP_HEADING}\n")
+    i = text.find("\n## Protocol ") if i < 0 else i
     return text + "\n" + section if i < 0 else text[:i + 1] + section + "\n" + text[i + 1:]

@@ -367,12 +367,32 @@ def verdicts_section(mc: dict, fig_names: dict) -> list[str]:
     return L
 
 
+def takeaway(mc: dict) -> str | None:
+    """One line for the top of a report: how the claims fared over the replicates."""
+    claims = mc.get("claims") or []
+    if not claims:
+        return None
+    count: dict[str, int] = {}
+    for c in claims:
+        word = c["verdict"]
+        if word == "disagrees":
+            word = f"disagree ({side(c)} the claim)"
+        count[word] = count.get(word, 0) + 1
+    order = ["agrees", "disagree (falls short of the claim)", "disagree (exceeds the claim)",
+             "inconclusive", "untestable"]
+    words = {"agrees": "agree"}
+    parts = [f"{count[w]} {words.get(w, w)}" for w in order if w in count]
+    parts += [f"{n} {w}" for w, n in count.items() if w not in order]
+    n_rep = mc.get("replicates")
+    over = f" over {n_rep} replicates" if n_rep else ""
+    return (f"**In short:** {len(claims)} claim verdict(s){over}: " + ", ".join(parts)
+            + " (each claim under each protocol; details in \"The papers' claims\").")
+
+
 def open_on_answer(text: str, mc_section: str, mc: dict, fig_names: dict) -> str:
     """The report reordered to open on the answer: its title, the one-line takeaway, the
     verdicts (each linked to its figure), the Monte Carlo evidence, then the set-up (the
     scenario's description, rows, runs and protocols) under :data:`SETUP_HEADING`."""
-    from .report import takeaway
-
     title, _, rest = text.partition("\n\n")
     parts = [title]
     line = takeaway(mc)

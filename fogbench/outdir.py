@@ -333,7 +333,7 @@ class Outputs:
     def _claim(self, path: Path, flag: str) -> None:
         """Refuse two options naming one output file (the later write would replace the
         earlier one's without a word); the same option may check its path again."""
-        key = Path(os.path.abspath(path)).resolve()
+        key = Path(os.path.realpath(path))    # (a symbolic link loop: its own path)
         other = self.claimed.setdefault(key, flag)
         if other != flag:
             raise OutDirError(f"{path}: {other} and {flag} both write this file; give each its "

@@ -24,8 +24,7 @@ from .fmt import (KEY_METRICS, ci_text, decimation, fmt, md_table,  # noqa: E402
                   metrics_table, p_better_text)
 from .io import atomic_write_bytes, atomic_write_text, run_arrays, save_figure as _save, versions  # noqa: E402
 from .claim_figures import (SETUP_HEADING, draw_claim_figures, open_on_answer,  # noqa: E402
-                            verdict_link)
-from .maps import side  # noqa: E402
+                            takeaway, verdict_link)
 from .outdir import as_final, check_out_dir, discard_part, new_part_dir, replace_dir  # noqa: E402
 from .runner import ScenarioResult, TERM_NAMES, thermal_segments, write_metrics  # noqa: E402
 
@@ -897,28 +896,6 @@ def fig_starts(res: ScenarioResult, mc: dict, path: Path) -> bool:
 def recording_replicates(mc: dict, work=None) -> dict:
     """What the recording shows over replicates: {protocol: {metric: {label: [values]}}}."""
     return mc.get("series", {})
-
-
-def takeaway(mc: dict) -> str | None:
-    """One line for the top of a report: how the claims fared over the replicates."""
-    claims = mc.get("claims") or []
-    if not claims:
-        return None
-    count: dict[str, int] = {}
-    for c in claims:
-        word = c["verdict"]
-        if word == "disagrees":
-            word = f"disagree ({side(c)} the claim)"
-        count[word] = count.get(word, 0) + 1
-    order = ["agrees", "disagree (falls short of the claim)", "disagree (exceeds the claim)",
-             "inconclusive", "untestable"]
-    words = {"agrees": "agree"}
-    parts = [f"{count[w]} {words.get(w, w)}" for w in order if w in count]
-    parts += [f"{n} {w}" for w, n in count.items() if w not in order]
-    n_rep = mc.get("replicates")
-    over = f" over {n_rep} replicates" if n_rep else ""
-    return (f"**In short:** {len(claims)} claim verdict(s){over}: " + ", ".join(parts)
-            + " (each claim under each protocol; details in \"The papers' claims\").")
 
 
 def _with_takeaway(text: str, mc: dict) -> str:

@@ -42,7 +42,7 @@ a protocol scores the same run more than once; `<label>`: `raw`, `oracle` or a m
 | `/report/metrics` | metrics tables, failed methods, display decimation (markdown, static) |
 | `/report/scenario` | the scenario file (markdown with a TOML block, static) |
 | `/report/allan/<protocol>/<run>` | a log-log plot (static, 2-D view origin): `axes` (decade grid and labels), `legend` (names in their colours); `axes` and every curve carry the transform from (log10 tau/s, log10 deviation/(deg/h)) onto the plot |
-| `/report/allan/<protocol>/<run>/<label>` | overlapping Allan deviation of (output - truth): a line strip of points (log10 tau in s, log10 ADEV in deg/h), static |
+| `/report/allan/<protocol>/<run>/<label>` | overlapping Allan deviation of (output - truth): a line strip of points (log10 tau in s, log10 ADEV in deg/h), static; up to the longest tau with at least 8 non-overlapping clusters |
 | `/report/allan/<protocol>/<run>/<label>/ci` | its 68.3 % confidence interval at every tau: one vertical segment per tau, same coordinates |
 | `/report/psd/<protocol>/<run>`, `.../<label>` | the same for the Welch PSD of (output - truth), mean removed: (log10 f/Hz, log10 PSD/((deg/h)^2/Hz)); the interval is one factor for every frequency, stated in the legend |
 | `/replicates/<protocol>/<metric>/<label>` | with Monte Carlo replicates: the metric of each replicate on the sequence timeline `replicate` (points) |
@@ -62,9 +62,12 @@ walk dominate instead of keeping white noise's width. The PSD's
 interval is the chi-square interval with the Welch EDF of a Hann window at 50 % overlap
 (Percival and Walden 1993, eq. 292b).
 
-Colours: the method's colour everywhere (raw grey, oracle cyan, methods from a palette that reads
-on both the light web theme and the dark native one); a held-out protocol in the full colour, an
-in-sample one in a lighter tint with "(in-sample)" in its name. Series whose values are constant
+Colours (``fogbench.palette``, shared with the PNG figures): the method's colour everywhere (raw
+grey, oracle cyan, one hue per method family -- the built-in method a label runs -- and the
+members of a family in darker and lighter shades of it; every colour reads on both the light web
+theme and the dark native one); a held-out protocol in the full colour, an in-sample one in a
+30 % lighter tint with "(in-sample)" in its name. The Allan deviation stops at the longest tau
+with at least ``palette.ALLAN_MIN_CLUSTERS`` (8) non-overlapping clusters, as in the PNGs. Series whose values are constant
 to rounding (peak to peak below 1e-6 in their display unit) are shown on a fixed range around
 their value instead of being autoscaled onto floating-point noise.
 
@@ -97,6 +100,7 @@ import numpy as np
 
 from fogcomp.units import DPH, DPS
 
+from . import palette as PAL
 from .fmt import decimation, fmt, md_table, metrics_table
 
 __all__ = ["write_recording", "view", "blueprint_for", "ReplicatesError", "decimation", "psd_interval",
@@ -124,10 +128,10 @@ _TURNTABLE = (0.15, 0.03)             # radius, length (MuJoCo half-height 0.015
 _FOG_BOX = (0.045, 0.045, 0.04)
 
 # colours that read on the light web theme and the dark native one (no near-black, no
-# near-white): raw grey, oracle cyan, methods from Tableau 10 without its grey and cyan
-_RAW, _ORACLE, _TRUTH = (140, 140, 140, 150), (23, 190, 207), (44, 160, 44)
-_PALETTE = [(31, 119, 180), (214, 39, 40), (255, 127, 14), (148, 103, 189), (227, 119, 194),
-            (188, 189, 34), (140, 86, 75), (44, 160, 44)]
+# near-white): fogbench.palette, shared with the PNG figures (raw grey, oracle cyan, a hue per
+# method family, members of a family in shades of it)
+_RAW, _ORACLE, _TRUTH = PAL.RAW, PAL.ORACLE, PAL.TRUTH
+_PALETTE = list(PAL.FAMILY_HUES.values())
 _RUN_PALETTE = [(31, 119, 180), (255, 127, 14), (44, 160, 44), (214, 39, 40), (148, 103, 189),
                 (140, 86, 75), (227, 119, 194), (188, 189, 34), (23, 190, 207)]
 _GRID = (128, 128, 128, 110)
@@ -142,7 +146,7 @@ def _p(*parts: str) -> str:
 
 def _tint(c, f: float) -> tuple:
     """``c`` blended towards white by the fraction ``f``."""
-    return tuple(int(round(x + (255 - x) * f)) for x in c[:3])
+    return PAL._shade(c, f)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -210,9 +214,10 @@ class _Writer:
 
 
 def _method_colors(res) -> dict[str, tuple]:
-    out = {"raw": _RAW, "oracle": _ORACLE}
-    for i, ms in enumerate(res.plan.methods):
-        out.setdefault(ms.label, _PALETTE[i % len(_PALETTE)])
+    """label -> colour of raw, oracle and every method: fogbench.palette.plan_styles, the
+    colours of the PNG figures."""
+    out = {lab: st.color for lab, st in PAL.plan_styles(res.plan).items()}
+    out["raw"] = (*PAL.RAW, 150)     # drawn widest, under the methods: half transparent
     return out
 
 
@@ -454,7 +459,7 @@ def _piece_name(lab: str, in_sample: bool) -> str:
 
 def _piece_color(colors, lab: str, in_sample: bool) -> tuple:
     c = _color(colors, lab)
-    return _tint(c, 0.45) if in_sample and lab not in ("raw", "oracle") else c
+    return PAL.in_sample(c) if in_sample and lab not in ("raw", "oracle") else c
 
 
 def _log_piece(w: _Writer, key: str, it, colors, in_sample: bool) -> int:
@@ -484,7 +489,7 @@ def _log_piece(w: _Writer, key: str, it, colors, in_sample: bool) -> int:
                 ad = None
             if ad is not None:
                 ok = np.isfinite(ad.adev) & (ad.adev > 0) & np.isfinite(ad.low) & \
-                    np.isfinite(ad.high)
+                    np.isfinite(ad.high) & PAL.allan_drawn(ad.m, ad.n)   # as the PNG
                 if ok.sum() >= 2:
                     allan.append((lab, name, c, ad.taus[ok], ad.adev[ok], ad.low[ok],
                                   ad.high[ok]))
@@ -653,8 +658,10 @@ def _metrics_text(res, decim: dict, piece_decim: list[int]) -> str:
     return "\n".join(L)
 
 
-def _y_axis(w: _Writer, paths: list[str]):
-    """A fixed y range for a view whose series are all constant to rounding, else None."""
+def _y_axis(w: _Writer, paths: list[str], unit: str | None = None):
+    """A fixed y range for a view whose series are all constant to rounding, or that span less
+    than the palette's least span of ``unit`` (``fogbench.palette.MIN_SPAN``: a temperature
+    axis spans at least 1 C, as in the PNGs), else None."""
     import rerun.blueprint as rrb
 
     r = [w.ranges[p] for p in paths if p in w.ranges]
@@ -662,6 +669,8 @@ def _y_axis(w: _Writer, paths: list[str]):
         return None
     lo, hi = min(a for a, _ in r), max(b for _, b in r)
     c = 0.5 * (lo + hi)
+    if unit in PAL.MIN_SPAN and hi - lo < PAL.MIN_SPAN[unit]:
+        return rrb.ScalarAxis(range=PAL.min_span(lo, hi, unit))
     if hi - lo > max(CONSTANT_PTP, 1e-9 * abs(c)):
         return None
     half = max(1.0, 0.5 * abs(c))
@@ -723,11 +732,11 @@ def _blueprint(res, w: _Writer, reps: dict | None = None, active_tab: str = "Ove
     whole = rrb.VisibleTimeRange(TIMELINE, start=rrb.TimeRangeBoundary.infinite(),
                                  end=rrb.TimeRangeBoundary.infinite())
 
-    def plot(name, paths, legend=False, corner="RightTop", headroom=False):
+    def plot(name, paths, legend=False, corner="RightTop", headroom=False, unit=None):
         paths = list(paths)
         return rrb.TimeSeriesView(
             name=name, contents=paths, axis_x=time_axis,
-            axis_y=_y_axis_with_headroom(w, paths) if headroom else _y_axis(w, paths),
+            axis_y=_y_axis_with_headroom(w, paths) if headroom else _y_axis(w, paths, unit),
             time_ranges=[whole],
             plot_legend=rrb.PlotLegend(visible=legend, corner=corner))
 
@@ -773,7 +782,7 @@ def _blueprint(res, w: _Writer, reps: dict | None = None, active_tab: str = "Ove
                      row_shares=[3, 2]),
         rrb.Vertical(
             rrb.Tabs(*err_tabs, name="Error vs truth") if len(err_tabs) > 1 else err_tabs[0],
-            plot(temp_title, temp),
+            plot(temp_title, temp, unit="deg C"),
             row_shares=[5, 2]),
         column_shares=[2, 3], name="Overview")
     tabs = [overview]
@@ -791,8 +800,9 @@ def _blueprint(res, w: _Writer, reps: dict | None = None, active_tab: str = "Ove
         plot("Gravity on the sensor axes (x red, y green, z blue), g",
              [_p("runs", r, "gravity", a) for r in runs for a in "xyz"]),
         plot("dT/dt, deg C/min: coil (dark), differenced from the sensor (light)",
-             each("thermal", "coil_rate_c_per_min") + each("thermal", "sensor_rate_c_per_min")),
-        plot(temp_title, temp),
+             each("thermal", "coil_rate_c_per_min") + each("thermal", "sensor_rate_c_per_min"),
+             unit="deg C/min"),
+        plot(temp_title, temp, unit="deg C"),
         grid_columns=2, name="Table and chamber"))
     terms = []
     for r in runs:

@@ -17,12 +17,13 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from fogcomp import metrics as M  # noqa: E402
-from fogcomp.allan import oadev  # noqa: E402
+from fogcomp.allan import oadev_ci  # noqa: E402
 from fogcomp.units import DPH, DPS  # noqa: E402
 
 from .fmt import (KEY_METRICS, ci_text, decimation, fmt, md_table,  # noqa: E402
                   metrics_table, p_better_text)
 from .io import atomic_write_bytes, atomic_write_text, run_arrays, save_figure as _save, versions  # noqa: E402
+from . import palette as PAL  # noqa: E402
 from .claim_figures import (SETUP_HEADING, draw_claim_figures, open_on_answer,  # noqa: E402
                             takeaway, verdict_link)
 from .outdir import as_final, check_out_dir, discard_part, new_part_dir, replace_dir  # noqa: E402
@@ -33,21 +34,22 @@ __all__ = ["write_run_dir", "dwells", "dwell_means", "raw_segment_stability"]
 MAX_PLOT_POINTS = 4000
 PSD_DECADES_BELOW_RAW = 6      # PSD axis: at most this many decades below the raw/oracle floor
 PSD_MAX_DECADES = 10           # ... and never more than this many decades in all
-COLORS = {"raw": "0.5", "oracle": "black", "truth": "tab:green"}
-METHOD_COLORS = ["tab:blue", "tab:orange", "tab:red", "tab:purple", "tab:brown", "tab:pink",
-                 "tab:cyan", "tab:olive"]
+# colours, line styles and units: fogbench.palette, shared with the recording
+COLORS = {"raw": PAL.mpl(PAL.RAW), "oracle": PAL.mpl(PAL.ORACLE), "truth": PAL.mpl(PAL.TRUTH)}
 NOT_IDENTIFIED = "not identified"
 
 
-def _color(label: str, labels: list[str]):
-    if label in COLORS:
+def _color(label: str, labels: list[str], plan=None):
+    """The colour of ``label`` (matplotlib floats): its method family's shade
+    (:func:`fogbench.palette.plan_styles` of the scenario's plan; without a plan every label is
+    its own family)."""
+    if label in ("raw", "oracle", "truth"):
         return COLORS[label]
-    others = [x for x in labels if x not in COLORS]
-    return METHOD_COLORS[others.index(label) % len(METHOD_COLORS)] if label in others else None
+    return PAL.mpl(PAL.rgb(PAL.plan_styles(plan, labels), label))
 
 
 def _styles(labels: list[str], widest: float = 3.2, thinnest: float = 1.0,
-            markers: bool = False, dashed_raw: bool = True) -> dict[str, dict]:
+            markers: bool = False, dashed_raw: bool = True, plan=None) -> dict[str, dict]:
     """Line properties of every output, so that none hides another.
 
     Curves are stacked oracle (bottom), raw, then the methods in their order; each is drawn
@@ -56,6 +58,10 @@ def _styles(labels: list[str], widest: float = 3.2, thinnest: float = 1.0,
     stay visible. Raw is also dashed (the oracle shows between its dashes) and, with
     ``markers``, carries open circles where oracle has filled dots.
 
+    Colours and the line styles of the members of a method family come from
+    :func:`fogbench.palette.plan_styles` (``plan``: the scenario's; None: every label its own
+    family).
+
     Returns
     -------
     dict
@@ -63,11 +69,15 @@ def _styles(labels: list[str], widest: float = 3.2, thinnest: float = 1.0,
     """
     order = [x for x in ("oracle", "raw") if x in labels] + \
         [x for x in labels if x not in ("oracle", "raw")]
+    pal = PAL.plan_styles(plan, labels)
     n = len(order)
     out = {}
     for i, lab in enumerate(order):
         lw = widest - (widest - thinnest) * (i / (n - 1) if n > 1 else 0.0)
-        st = {"color": _color(lab, labels), "lw": lw, "ls": "-", "zorder": 2.0 + 0.1 * i}
+        ps = pal.get(lab)
+        st = {"color": PAL.mpl(PAL.rgb(pal, lab)), "lw": lw,
+              "ls": ps.dash if ps is not None and lab not in ("raw", "oracle") else "-",
+              "zorder": 2.0 + 0.1 * i}
         if lab == "raw" and dashed_raw:
             st["ls"] = (0, (4, 2))
         if markers and lab == "raw":
@@ -81,13 +91,6 @@ def _styles(labels: list[str], widest: float = 3.2, thinnest: float = 1.0,
 def _decimate(t, *ys):
     step = decimation(t.size, MAX_PLOT_POINTS)
     return (t[::step],) + tuple(y[::step] for y in ys), step
-
-
-def _unit(scored) -> tuple[float, str]:
-    """Plot rates in deg/s when the table moves, in deg/h when it is static."""
-    rng = np.ptp(scored.piece.truth) / DPS
-    return (DPS, "deg/s") if rng > 0.01 or abs(np.mean(scored.piece.truth)) > 0.01 * DPS else \
-        (DPH, "deg/h")
 
 
 DWELL_TRUTH_PTP = 0.01 * DPH   # true rate within this of its median: a static dwell
@@ -145,39 +148,50 @@ def _is_dwell_piece(p) -> bool:
         for b in blocks)
 
 
-def fig_timeseries(it, path: Path) -> int:
+def _min_span(ax, unit: str) -> None:
+    """Widen the y axis to the palette's least span of ``unit`` (fogbench.palette.MIN_SPAN)."""
+    lo, hi = ax.get_ylim()
+    ax.set_ylim(*PAL.min_span(lo, hi, unit))
+
+
+def fig_timeseries(it, path: Path, plan=None) -> int:
+    """Outputs and truth (deg/s) and the error against the truth (deg/h), against the time since
+    power-on (s, or h for pieces ending past fogbench.palette.HOURS_ABOVE_S), as in the
+    recording."""
     if _is_dwell_piece(it.piece):
-        fig_dwells(it, path)
+        fig_dwells(it, path, plan=plan)
         return 1
-    u, uname = _unit(it)
     p = it.piece
+    ts, tname = PAL.time_unit(float(p.t[-1]))
     fig, axes = plt.subplots(2, 1, figsize=(10, 6.5), sharex=True)
     labels = list(it.outputs)
-    (t, truth, *outs), step = _decimate(p.t - p.t[0], p.truth, *[it.outputs[k] for k in labels])
-    sty = _styles(labels, widest=1.6, thinnest=0.8, dashed_raw=False)
+    (t, truth, *outs), step = _decimate(p.t / ts, p.truth, *[it.outputs[k] for k in labels])
+    sty = _styles(labels, widest=1.6, thinnest=0.8, dashed_raw=False, plan=plan)
     ax = axes[0]
     for lab, y in zip(labels, outs):
         if lab != "oracle":
-            ax.plot(t, y / u, label=lab, alpha=0.85, **sty[lab])
-    ax.plot(t, truth / u, color=COLORS["truth"], lw=1.4, ls="--", label="truth", zorder=10)
-    ax.set_ylabel(f"rate, {uname}")
-    ax.legend(loc="upper right", fontsize=8, ncol=3)
+            ax.plot(t, y / DPS, label=lab, alpha=0.85, **sty[lab])
+    ax.plot(t, truth / DPS, color=COLORS["truth"], lw=1.4, ls="--", label="truth", zorder=10)
+    ax.set_ylabel(f"rate, {PAL.RATE_UNIT}")
+    _min_span(ax, PAL.RATE_UNIT)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
     ax.set_title(f"{it.protocol} / {it.run}: output and truth")
     ax = axes[1]
     for lab, y in zip(labels, outs):
-        ax.plot(t, (y - truth) / u, label=lab, alpha=0.85, **sty[lab])
-    ax.set_ylabel(f"error vs truth, {uname}")
-    ax.set_xlabel("time in the scored piece, s")
-    ax.legend(loc="upper right", fontsize=8, ncol=3)
+        ax.plot(t, (y - truth) / DPH, label=lab, alpha=0.85, **sty[lab])
+    ax.set_ylabel(f"error vs truth, {PAL.ERROR_UNIT}")
+    _min_span(ax, PAL.ERROR_UNIT)
+    ax.set_xlabel(f"time since power-on, {tname}")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
     _save(fig, path)
     return step
 
 
-def fig_dwells(it, path: Path) -> None:
+def fig_dwells(it, path: Path, plan=None) -> None:
     """A multi-position test: per-dwell means in deg/h with the standard error of each mean."""
     p = it.piece
     labels = list(it.outputs)
-    sty = _styles(labels, widest=1.6, thinnest=0.8, dashed_raw=False)
+    sty = _styles(labels, widest=1.6, thinnest=0.8, dashed_raw=False, plan=plan)
     fig, axes = plt.subplots(2, 1, figsize=(10, 6.5), sharex=True)
     _, truth_mean, _ = dwell_means(p.t, p.truth, p.fs)
     k = truth_mean.size
@@ -222,16 +236,19 @@ def _psd_ylim(curves: dict[str, np.ndarray]) -> tuple[float, float]:
     return low, top
 
 
-def fig_psd(it, path: Path):
+def fig_psd(it, path: Path, plan=None):
+    """Welch PSD of each output's error against the truth (mean removed), (deg/h)^2/Hz, as in
+    the recording."""
     p = it.piece
     fig, ax = plt.subplots(figsize=(8, 4.5))
     nper = min(p.raw.size, 1024)
     labels = list(it.outputs)
-    sty = _styles(labels)
+    sty = _styles(labels, plan=plan)
     curves = {}
     for lab, y in it.outputs.items():
-        f, s = M.psd(y - np.mean(y), p.fs, nperseg=nper)
-        curves[lab] = s[1:] / DPS**2
+        e = (y - p.truth) / DPH
+        f, s = M.psd(e - np.mean(e), p.fs, nperseg=nper)
+        curves[lab] = s[1:]
     lo, hi = _psd_ylim(curves)
     for lab, s in curves.items():
         below = bool(np.any(s < lo))
@@ -239,27 +256,80 @@ def fig_psd(it, path: Path):
                   label=lab + (" (falls below the axis)" if below else ""))
     ax.set_ylim(lo, hi)
     ax.set_xlabel("frequency, Hz")
-    ax.set_ylabel("PSD, (deg/s)^2/Hz")
-    ax.set_title(f"{it.protocol} / {it.run}: PSD before and after compensation (Welch, mean removed)")
-    ax.legend(fontsize=8)
+    ax.set_ylabel(f"PSD of output - truth, {PAL.PSD_UNIT}")
+    from .recording import psd_interval
+
+    lo_f, hi_f, edf = psd_interval(p.raw.size, nper, ALLAN_CI)
+    ax.set_title(f"{it.protocol} / {it.run}: PSD of the error (Welch, mean removed)\n"
+                 f"{100 * ALLAN_CI:.0f} % interval of every value: x{lo_f:.2f} to x{hi_f:.2f} "
+                 f"(chi-square, EDF {edf:.0f})", fontsize=9)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
     _save(fig, path)
 
 
-def fig_allan(it, path: Path) -> bool:
+ALLAN_CI = 0.6826894921370859      # one sigma, as the recording's bars
+
+
+def _has_noise_model(p) -> bool:
+    """The bench identifies the noise terms of this piece (fogbench.runner.score's rule: a
+    contiguous record of at least 1000 s and 512 samples at 1 Hz or more)."""
+    return (p.raw.size / p.fs >= 1000.0 and p.raw.size >= 512 and p.fs >= 1.0
+            and not np.any(np.diff(p.t) > 1.5 / p.fs))
+
+
+def _noise_model(err, fs: float):
+    """The noise model the bench identifies from an error record (fogcomp.metrics.noise_terms:
+    identify_noise_model on the octave Allan variance), or None."""
+    from fogcomp.allan import oadev_details
+    from fogcomp.noise import identify_noise_model
+
+    if np.ptp(err) == 0:
+        return None
+    d = oadev_details(err, fs)
+    if not np.all(d.adev > 0) or d.taus.shape[0] < 3:
+        return None
+    return identify_noise_model(d.taus, d.adev**2, fs, err.shape[0], record_length=False)
+
+
+def fig_allan(it, path: Path, plan=None) -> bool:
+    """Overlapping Allan deviation of each output's error against the truth, deg/h, with its
+    one-sigma chi-square interval as a band (EDF of the noise type leading each tau,
+    fogcomp.allan.oadev_ci), drawn up to the longest tau with at least
+    fogbench.palette.ALLAN_MIN_CLUSTERS non-overlapping clusters; over raw and oracle the noise
+    model the bench identified (dotted) where it identifies one."""
     p = it.piece
     if p.raw.size < 64:
         return False
-    fig, ax = plt.subplots(figsize=(8, 4.5))
+    fig, ax = plt.subplots(figsize=(8.8, 4.8))
     labels = list(it.outputs)
-    sty = _styles(labels, markers=True)
+    sty = _styles(labels, markers=True, plan=plan)
+    cut = None
     for lab, y in it.outputs.items():
-        taus, ad = oadev(y - p.truth, p.fs)
-        ax.loglog(taus, ad / DPH, label=lab, **sty[lab])
+        ad = oadev_ci(y - p.truth, p.fs, ci=ALLAN_CI)
+        keep = PAL.allan_drawn(ad.m, ad.n) & np.isfinite(ad.adev) & (ad.adev > 0)
+        cut = ad.taus[keep][-1] if keep.any() else cut
+        ax.loglog(ad.taus[keep], ad.adev[keep] / DPH, label=lab, **sty[lab])
+        ax.fill_between(ad.taus[keep], ad.low[keep] / DPH, ad.high[keep] / DPH,
+                        color=sty[lab]["color"], alpha=0.13, lw=0, zorder=1.0)
+    if _has_noise_model(p):
+        for lab in ("raw", "oracle"):
+            if lab not in it.outputs:
+                continue
+            nm = _noise_model(it.outputs[lab] - p.truth, p.fs)
+            if nm is None or not nm.in_model:
+                continue
+            tt = np.geomspace(1.0 / p.fs, cut or p.raw.size / p.fs / PAL.ALLAN_MIN_CLUSTERS, 60)
+            ax.loglog(tt, nm.model_adev(tt) / DPH, color=sty[lab]["color"], lw=1.0,
+                      ls=":", zorder=9.0,
+                      label=f"{lab}: identified model {nm.spec()}")
     ax.set_xlabel("averaging time tau, s")
-    ax.set_ylabel("Allan deviation of (output - truth), deg/h")
-    ax.set_title(f"{it.protocol} / {it.run}: overlapping Allan deviation")
+    ax.set_ylabel(f"Allan deviation of (output - truth), {PAL.ERROR_UNIT}")
+    ax.set_title(f"{it.protocol} / {it.run}: overlapping Allan deviation\n"
+                 f"bands: {100 * ALLAN_CI:.0f} % interval (chi-square, EDF of the leading "
+                 f"noise type); drawn while >= {PAL.ALLAN_MIN_CLUSTERS} non-overlapping "
+                 "clusters remain", fontsize=9)
     ax.grid(True, which="both", lw=0.3)
-    ax.legend(fontsize=8)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
     _save(fig, path)
     return True
 
@@ -270,10 +340,11 @@ def fig_thermal(res: ScenarioResult, run: str, path: Path) -> bool:
         return False
     j = res.scenario.axes.index(res.plan.axis)
     k = max(1, int(round(100.0 * rd.fs)))
-    t = M.smooth(rd.truth.t, rd.fs, 100.0) / 3600
+    ts, tname = PAL.time_unit(float(rd.truth.t[-1]))
+    t = M.smooth(rd.truth.t, rd.fs, 100.0) / ts
     bias = M.smooth(rd.fog.raw[:, j] - rd.truth_axis(j), rd.fs, 100.0) / DPH
     th = rd.thermal
-    th_h = rd.truth.t / 3600
+    th_h = rd.truth.t / ts
     fig, axes = plt.subplots(2, 1, figsize=(10, 6.5), sharex=True)
     ax = axes[0]
     ax.plot(th_h, th.chamber, color="tab:blue", lw=1.4, label="chamber")
@@ -283,17 +354,20 @@ def fig_thermal(res: ScenarioResult, run: str, path: Path) -> bool:
     if th.sensor is not None and not np.array_equal(th.sensor, th.coil):
         ax.plot(th_h, th.sensor, color="black", lw=0.8, ls=":", label="sensor reading")
     ax.set_ylabel("temperature, deg C")
+    _min_span(ax, "deg C")
     ax2 = ax.twinx()
     ax2.plot(th_h, th.coil_rate * 60, color="tab:red", lw=0.8, label="coil dT/dt (right axis)")
     ax2.set_ylabel("coil dT/dt, deg C/min")
+    _min_span(ax2, "deg C/min")
     h1, l1 = ax.get_legend_handles_labels()
     h2, l2 = ax2.get_legend_handles_labels()
     ax.legend(h1 + h2, l1 + l2, loc="upper left", fontsize=8)
     ax.set_title(f"{run}: chamber program, FOG temperatures and raw bias")
     axes[1].plot(t, bias, lw=0.8, color="0.4",
                  label=f"raw output - truth (100 s means of {k} samples)")
-    axes[1].set_ylabel("bias, deg/h")
-    axes[1].set_xlabel("time, h")
+    axes[1].set_ylabel(f"bias, {PAL.ERROR_UNIT}")
+    _min_span(axes[1], PAL.ERROR_UNIT)
+    axes[1].set_xlabel(f"time since power-on, {tname}")
     axes[1].legend(fontsize=8)
     _save(fig, path)
     return True
@@ -343,7 +417,7 @@ def fig_coefficients(res: ScenarioResult, protocol: str, path: Path) -> bool:
     span = max(float(np.max(np.abs(np.concatenate(shown)))), 1e-12) * 1.25
     any_hidden = False
     for i, (lab, (est, ok)) in enumerate(ests.items()):
-        c = METHOD_COLORS[i % len(METHOD_COLORS)]
+        c = _color(lab, list(ests), res.plan)
         xi = x + (i - (len(ests) - 1) / 2) * width
         ax.bar(xi[ok], est[ok], width, alpha=0.75, color=c, label=lab)
         if (~ok).any():
@@ -711,12 +785,13 @@ def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_d
             if key in decim:
                 continue
             decim[key] = figure(f"{base} time series", fig_timeseries, it,
-                                tmp / "figures" / f"{base}__timeseries.png") or 1
-            figure(f"{base} PSD", fig_psd, it, tmp / "figures" / f"{base}__psd.png")
+                                tmp / "figures" / f"{base}__timeseries.png", res.plan) or 1
+            figure(f"{base} PSD", fig_psd, it, tmp / "figures" / f"{base}__psd.png", res.plan)
             for kind in ("timeseries", "psd"):
                 if (tmp / "figures" / f"{base}__{kind}.png").exists():
                     fig_names[(it.protocol, it.run, kind)] = f"figures/{base}__{kind}.png"
-            if figure(f"{base} Allan", fig_allan, it, tmp / "figures" / f"{base}__allan.png"):
+            if figure(f"{base} Allan", fig_allan, it, tmp / "figures" / f"{base}__allan.png",
+                      res.plan):
                 fig_names[(it.protocol, it.run, "allan")] = f"figures/{base}__allan.png"
         for prot in res.plan.protocols:
             if figure(f"{prot.name} coefficients", fig_coefficients, res, prot.name,
@@ -836,7 +911,7 @@ def _fig_distributions(res: ScenarioResult, mc: dict, path: Path, panel) -> bool
         for i, (lab, d) in enumerate(zip(labels, data)):
             ax.plot(i + rng.uniform(-style["jitter"], style["jitter"], d.size), d, "o",
                     ms=style["ms"], alpha=style["alpha"],
-                    color=_color(lab, labels) or "tab:blue", zorder=3)
+                    color=_color(lab, labels, res.plan), zorder=3)
             if extra is not None:
                 extra(ax, i, lab)
         ax.set_xticks(range(len(labels)), labels, rotation=30, ha="right")

@@ -129,8 +129,9 @@ def test_psd_axis_stays_within_the_range_that_matters(figs, tmp_path):
         y = lines[lab].get_ydata()
         y = y[np.isfinite(y)]
         assert lo <= y.min() and y.max() <= hi, lab
-    # the expected white level, independent of the code: 2 sigma^2 / fs (one-sided)
-    level = 2 * (5.0 * DPH / DPS) ** 2 / 10.0
+    # the expected white level of the error, independent of the code: 2 sigma^2 / fs
+    # (one-sided), in (deg/h)^2/Hz as in the recording
+    level = 2 * 5.0 ** 2 / 10.0
     assert lo < level / 10 and hi > level * 2
     # the smoother's numerically-zero spectrum does not stretch the axis, and the legend says so
     assert lo > 1e-20

@@ -678,20 +678,20 @@ def _toml_document(doc: dict) -> str:
     return "".join(out)
 
 
-def _with_lab_references(text: str, which: list[int], names: list[str]) -> str:
-    """The scenario's text with ``reference = "lab"`` in its protocols numbered ``which``
-    (``--reference lab``), so that the text, the run folder's scenario.toml, runs again as it
+def _with_references(text: str, which: list[int], names: list[str], value: str) -> str:
+    """The scenario's text with ``reference = VALUE`` in its protocols numbered ``which``
+    (``--reference VALUE``), so that the text, the run folder's scenario.toml, runs again as it
     ran: a line after each one's ``[[protocols]]`` header. A file whose protocols are not
     written under such headers (inline tables) is written out whole, its own text kept below
     as comments. Either is read back and checked to hold the values the run ran."""
-    note = "  # --reference lab\n"
+    note = f"  # --reference {value}\n"
     try:
         want = tomllib.loads(text)
         for i in which:
-            want["protocols"][i]["reference"] = "lab"
+            want["protocols"][i]["reference"] = value
     except (tomllib.TOMLDecodeError, KeyError, IndexError, TypeError):
         # the text's protocols are not the run's (not a file as read): say so in a comment
-        return text + ('\n# --reference lab: reference = "lab" set in protocols '
+        return text + (f'\n# --reference {value}: reference = "{value}" set in protocols '
                        + ", ".join(json.dumps(n) for n in names) + "\n")
 
     def holds(new: str) -> bool:
@@ -706,17 +706,17 @@ def _with_lab_references(text: str, which: list[int], names: list[str]) -> str:
         for i in sorted(which, reverse=True):
             h = heads[i]
             lines.insert(h + 1, ("" if lines[h].endswith("\n") else "\n")
-                         + 'reference = "lab"' + note)
+                         + f'reference = "{value}"' + note)
         new = "".join(lines)
         if holds(new):
             return new
-    new = ("# --reference lab: reference = \"lab\" set in protocols "
+    new = (f"# --reference {value}: reference = \"{value}\" set in protocols "
            + ", ".join(json.dumps(n) for n in names) + "; the file written out whole (its "
            "own text, as given, is below as comments)\n" + _toml_document(want)
            + "\n# the file as given:\n" + "".join(f"# {ln}\n" for ln in text.splitlines()))
     if not holds(new):
-        raise ScenarioError("--reference lab: cannot write the scenario with reference = "
-                            "\"lab\" set in its protocols (please report this file)")
+        raise ScenarioError(f"--reference {value}: cannot write the scenario with reference = "
+                            f"\"{value}\" set in its protocols (please report this file)")
     return new
 
 
@@ -756,17 +756,18 @@ def load_scenario(path: str | Path, extra_sections: tuple[str, ...] = (),
         doc["methods"].extend({"name": n} for n in added)
         text = text + "\n# --with-method: methods added to the file's\n" + "".join(
             f"[[methods]]\nname = {json.dumps(n)}\n" for n in added)
-    if reference_override() == "lab" and isinstance(doc.get("protocols"), list):
-        # --reference lab: every protocol that does not say its reference is fitted on the
-        # lab's, beside its ideal-lab twin; written into the text, like --with-method, so that
-        # the run folder's scenario.toml runs again as it ran
+    ref = reference_override()
+    if ref in ("lab", "truth") and isinstance(doc.get("protocols"), list):
+        # --reference lab | truth: every protocol that does not say its reference is fitted on
+        # the lab's (beside its ideal-lab twin) or on the truth alone; written into the text,
+        # like --with-method, so that the run folder's scenario.toml runs again as it ran
         set_ = [i for i, p in enumerate(doc["protocols"])
                 if isinstance(p, dict) and "reference" not in p]
         for i in set_:
-            doc["protocols"][i]["reference"] = "lab"
+            doc["protocols"][i]["reference"] = ref
         if set_:
-            text = _with_lab_references(text, set_, [str(doc["protocols"][i].get("name"))
-                                                     for i in set_])
+            text = _with_references(text, set_, [str(doc["protocols"][i].get("name"))
+                                                 for i in set_], ref)
     top = _Table(doc, "top level", file)
     sc = _Table(top.get("scenario", "table"), "[scenario]", file)
     name = sc.get("name", "name")
@@ -1186,7 +1187,7 @@ def load_plan(sc: Scenario) -> Plan:
             in_sample=t.get("in_sample", "bool", False),
             skip_s=t.get("skip_s", "float", 0.0, lo=0.0),
             smooth_s=t.get("smooth_s", "float", None, lo=0.0, lo_open=True),
-            reference=t.get("reference", "str", "truth", choices={"truth", "lab"}),
+            reference=t.get("reference", "str", None, choices={"truth", "lab"}),
         )
         if prot.smooth_s is not None:
             k = prot.smooth_s * sc.fs
@@ -1196,18 +1197,6 @@ def load_plan(sc: Scenario) -> Plan:
         t.done()
         _check_overlap(prot, sc, file)
         protocols.append(prot)
-    # every protocol fitted on the lab's references is also run on the truth (the ideal lab),
-    # beside it, named <name>.ideal: the paired difference is what the lab's references cost
-    for p in protocols:
-        if p.reference == "lab" and name_problem(f"{p.name}.ideal"):
-            raise extra.err("protocols", f"protocol {p.name!r} has reference = \"lab\": its twin "
-                            f"'{p.name}.ideal' must also be a name: {name_problem(p.name + '.ideal')}")
-    protocols += [replace(p, name=f"{p.name}.ideal", reference="truth", twin_of=p.name,
-                          description=f"{p.description} (ideal lab: fitted on the truth)".strip())
-                  for p in protocols if p.reference == "lab"]
-    if len({p.name for p in protocols}) != len(protocols):
-        raise extra.err("protocols", "protocol names must be unique (a protocol with reference "
-                        "= \"lab\" adds <name>.ideal)")
     if any(p.in_sample for p in protocols) and all(p.in_sample for p in protocols):
         raise extra.err("protocols", "an in_sample protocol must stand beside a held-out one "
                         "(in_sample = false) in the same scenario")
@@ -1264,6 +1253,25 @@ def load_plan(sc: Scenario) -> Plan:
     labels = [m.label for m in methods]
     if len(set(labels)) != len(labels):
         raise extra.err("methods", f"method labels must be unique (give 'label'); got {labels}")
+    # A protocol that does not name its reference models a lab's calibration when a method of
+    # the scenario is supervised (handed a reference rate, and gravity if it wants it): it is
+    # fitted on what a lab has (reference = "lab", sim/lab.py), never on the truth. Where no
+    # method is handed a reference, the reference changes nothing and "truth" stands (no twin).
+    supervised = any(m.failed is None and get_method(m.name).supervised for m in methods)
+    protocols = [p if p.reference is not None else
+                 replace(p, reference="lab" if supervised else "truth") for p in protocols]
+    # every protocol fitted on the lab's references is also run on the truth (the ideal lab),
+    # beside it, named <name>.ideal: the paired difference is what the lab's references cost
+    for p in protocols:
+        if p.reference == "lab" and name_problem(f"{p.name}.ideal"):
+            raise extra.err("protocols", f"protocol {p.name!r} has reference = \"lab\": its twin "
+                            f"'{p.name}.ideal' must also be a name: {name_problem(p.name + '.ideal')}")
+    protocols += [replace(p, name=f"{p.name}.ideal", reference="truth", twin_of=p.name,
+                          description=f"{p.description} (ideal lab: fitted on the truth)".strip())
+                  for p in protocols if p.reference == "lab"]
+    if len({p.name for p in protocols}) != len(protocols):
+        raise extra.err("protocols", "protocol names must be unique (a protocol with reference "
+                        "= \"lab\" adds <name>.ideal)")
 
     known_methods = set(labels) | {"raw", "oracle"}
     bound_methods = known_methods | {m.group for m in methods if m.group}  # a group: each member

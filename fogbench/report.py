@@ -154,35 +154,263 @@ def _min_span(ax, unit: str) -> None:
     ax.set_ylim(*PAL.min_span(lo, hi, unit))
 
 
+# ---------------------------------------------------------------------------------------------
+# Views that show the effect (issue 26): sweeps as envelopes, at most MAX_LINES lines a panel,
+# raw in its own panel when it dwarfs the methods, what every output keeps alike taken out
+MAX_LINES = 8        # lines in one panel at most; more methods are split over more panels
+DWARF = 3.0          # raw (oracle) gets its own panel when an axis holding it and the methods'
+#                      errors would span more than this many times the methods' errors
+TREND_FRACTION = 1 / 50   # raw's trend: centred moving mean over this fraction of the piece
+TREND_CORR = 0.9     # ... taken out of every curve when every method keeps raw's slow error:
+#                      over TREND_TEST times that window, each method's moving mean correlates
+#                      with raw's by >= this, its std within a factor 2: a wander no method
+#                      removes (denoisers) is not what the methods differ on
+TREND_TEST = 5
+TS_METHOD_LINES = 4  # a time series panel: at most this many methods' (noisy) traces beside
+#                      raw and oracle, whole families together
+LEGEND = {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0), "fontsize": 8,
+          "borderaxespad": 0.0}      # right of the data
+
+
+def _entries(labels: list[str], plan) -> list[dict]:
+    """The methods among ``labels`` as they are drawn, in families: a method alone, or the
+    members of a sweep (``MethodSpec.group``, a ``[[methods]]`` table with ``sweep``) as one
+    entry drawn as an envelope with its default (paper) setting's line.
+
+    Returns
+    -------
+    list of dict
+        ``group`` (the sweep's label, or None), ``members`` (labels), ``default`` (the label
+        drawn as a line: the member with ``paper_setting``, else the first).
+    """
+    specs = {m.label: m for m in getattr(plan, "methods", ())}
+    out, groups = [], {}
+    for lab in labels:
+        if lab in ("raw", "oracle"):
+            continue
+        m = specs.get(lab)
+        g = getattr(m, "group", None)
+        if g:
+            if g not in groups:
+                groups[g] = {"group": g, "members": [], "default": None}
+                out.append(groups[g])
+            groups[g]["members"].append(lab)
+            if getattr(m, "paper_setting", False) and groups[g]["default"] is None:
+                groups[g]["default"] = lab
+        else:
+            out.append({"group": None, "members": [lab], "default": lab})
+    for e in out:
+        e["default"] = e["default"] or e["members"][0]
+        if len(e["members"]) == 1:
+            e["group"] = None
+    pal = PAL.plan_styles(plan, labels)
+    fams = list(dict.fromkeys(pal[e["default"]].family for e in out))
+    return sorted(out, key=lambda e: fams.index(pal[e["default"]].family))
+
+
+def _chunks(entries: list[dict], capacity: int, plan=None) -> list[list[dict]]:
+    """``entries`` (in family order) split into panels of at most ``capacity`` lines: each
+    family whole into the first panel it fits in (first fit), a family larger than a panel
+    split over panels of its own."""
+    if not entries:
+        return [[]]
+    capacity = max(1, capacity)
+    pal = PAL.plan_styles(plan, [e["default"] for e in entries])
+    fams: list[list[dict]] = []
+    for e in entries:
+        f = pal[e["default"]].family
+        if fams and pal[fams[-1][0]["default"]].family == f:
+            fams[-1].append(e)
+        else:
+            fams.append([e])
+    out: list[list[dict]] = []
+    for fam in fams:
+        while fam:
+            room = next((c for c in out if len(c) + len(fam) <= capacity), None)
+            if room is not None:        # the first panel it fits in whole
+                room += fam
+                fam = []
+            else:
+                out.append(fam[:capacity])
+                fam = fam[capacity:]
+    return out
+
+
+def _draw_entry(ax, x, curves: dict, e: dict, sty: dict, **kw):
+    """One entry on ``ax``: a method's line, or a sweep's envelope (at every x the best and the
+    worst of its members' ``curves``, filled, ``gid`` ``envelope:<group>``) with its default
+    setting's line. Returns the lines drawn."""
+    d = e["default"]
+    st = {**sty[d], **kw}
+    if e["group"] is None:
+        return ax.plot(x, curves[d], label=d, **st)
+    stack = np.vstack([curves[m] for m in e["members"]])
+    import warnings
+
+    with warnings.catch_warnings():     # a tau no member reaches: NaN, not drawn
+        warnings.simplefilter("ignore", RuntimeWarning)
+        lo, hi = np.nanmin(stack, axis=0), np.nanmax(stack, axis=0)
+    ax.fill_between(x, lo, hi, color=st["color"], alpha=0.3, lw=0, zorder=1.5,
+                    gid=f"envelope:{e['group']}",
+                    label=f"{e['group']}: {len(e['members'])} settings, best..worst")
+    setting = d[len(e["group"]) + 1:] if d.startswith(e["group"] + ".") else d
+    st["ls"] = "-"
+    return ax.plot(x, curves[d], label=f"{e['group']} default ({setting})", **st)
+
+
+def _moving_mean(y: np.ndarray, k: int) -> np.ndarray:
+    """Centred moving mean over ``k`` samples; near the ends, the mean of the samples there
+    are (the window shrinks: no padding)."""
+    y = np.asarray(y, dtype=float)
+    n = y.size
+    h = max(1, int(k)) // 2
+    c = np.concatenate(([0.0], np.cumsum(y)))
+    i = np.arange(n)
+    a, b = np.maximum(i - h, 0), np.minimum(i + h + 1, n)
+    return (c[b] - c[a]) / (b - a)
+
+
+def _kept_alike(errs: dict, methods: list[str]):
+    """What every output keeps alike, to take out of the methods' panels: ``(kind, trend, k)``.
+
+    ``k`` is TREND_FRACTION of the piece (samples); raw's trend is the centred moving mean of
+    its error over ``k``.
+
+    - ``"trend"``: every method keeps raw's slow error (a denoiser under a wander: over
+      TREND_TEST k, each method's moving mean correlates with raw's by >= TREND_CORR, its std
+      within a factor 2 of raw's): raw's trend (returned) is taken out of every curve.
+    - ``"fast"``: every method keeps raw's fast error (a drift model under white noise: what is
+      left after the k-sample moving mean correlates with raw's by >= TREND_CORR, std within a
+      factor 2): every curve is drawn as its k-sample moving mean.
+    - ``None``: the methods differ in both; errors are drawn as they are.
+    """
+    raw = errs.get("raw")
+    if raw is None or not methods or raw.size < 20:
+        return None, None, 0
+    k = max(3, round(raw.size * TREND_FRACTION))
+
+    def alike(part):
+        ref = part(raw)
+        s = float(np.std(ref))
+        if not s > 0:
+            return False
+        for lab in methods:
+            x = part(errs[lab])
+            sx = float(np.std(x))
+            if not (sx > 0 and 0.5 <= sx / s <= 2.0
+                    and float(np.corrcoef(ref, x)[0, 1]) >= TREND_CORR):
+                return False
+        return True
+
+    if alike(lambda e: _moving_mean(e, TREND_TEST * k)):
+        return "trend", _moving_mean(raw, k), k
+    if alike(lambda e: e - _moving_mean(e, k)):
+        return "fast", None, k
+    return None, None, k
+
+
+def _span(curves) -> tuple[float, float]:
+    vals = [np.asarray(c)[np.isfinite(c)] for c in curves]
+    vals = [v for v in vals if v.size]
+    if not vals:
+        return 0.0, 0.0
+    return min(float(v.min()) for v in vals), max(float(v.max()) for v in vals)
+
+
 def fig_timeseries(it, path: Path, plan=None) -> int:
-    """Outputs and truth (deg/s) and the error against the truth (deg/h), against the time since
-    power-on (s, or h for pieces ending past fogbench.palette.HOURS_ABOVE_S), as in the
-    recording."""
+    """The error of every output against the truth (deg/h) where the methods differ, against
+    the time since power-on (s, or h past fogbench.palette.HOURS_ABOVE_S).
+
+    Panels, top to bottom: raw output and truth (deg/s); raw's error as it is (and the
+    oracle's when it dwarfs the methods), with its moving mean, when it dwarfs the methods'
+    errors (an axis holding both would span more than DWARF times the methods' errors) or when
+    something every output keeps alike is taken out below (:func:`_kept_alike`); then the
+    methods' errors, zoomed to them (raw and oracle beside them where they do not dwarf them),
+    at most TS_METHOD_LINES methods a panel, whole families together (more methods: more
+    panels, one y range), a sweep as its envelope with the default setting's line."""
     if _is_dwell_piece(it.piece):
         fig_dwells(it, path, plan=plan)
         return 1
     p = it.piece
     ts, tname = PAL.time_unit(float(p.t[-1]))
-    fig, axes = plt.subplots(2, 1, figsize=(10, 6.5), sharex=True)
     labels = list(it.outputs)
-    (t, truth, *outs), step = _decimate(p.t / ts, p.truth, *[it.outputs[k] for k in labels])
+    entries = _entries(labels, plan)
+    methods = [m for e in entries for m in e["members"]]
+    errs = {lab: (it.outputs[lab] - p.truth) / DPH for lab in labels}
+    kind, trend, k = _kept_alike(errs, methods)
+    if kind == "trend":
+        shown = {lab: e - trend for lab, e in errs.items()}
+    elif kind == "fast":
+        shown = {lab: _moving_mean(e, k) for lab, e in errs.items()}
+    else:
+        shown = errs
+    (t, truth, raw_out, *dec), step = _decimate(p.t / ts, p.truth, p.raw,
+                                                *[shown[lab] for lab in labels])
+    cur = dict(zip(labels, dec))
+    lo, hi = _span([cur[m] for m in methods])
+    width = hi - lo
+
+    def dwarfs(lab):        # the axis holding it and the methods spans DWARF x the methods'
+        a, b = _span([cur[lab]])
+        return bool(methods) and max(b, hi) - min(a, lo) > DWARF * max(width, 1e-300)
+
+    big = [lab for lab in ("raw", "oracle") if lab in cur and dwarfs(lab)]
+    fixed = [lab for lab in ("raw", "oracle") if lab in cur and lab not in big]
+    lo, hi = _span([cur[m] for m in methods + fixed])   # the zoom: methods, and raw/oracle
+    width = hi - lo                                      # where they do not dwarf them
+    ref_panel = bool(big) or kind is not None
+    panels = _chunks(entries, min(TS_METHOD_LINES, MAX_LINES - len(fixed)), plan)
+    n_ax = 1 + int(ref_panel) + len(panels)
+    fig, axes = plt.subplots(n_ax, 1, figsize=(10.5, 2.1 + 2.3 * (n_ax - 1)), sharex=True,
+                             squeeze=False)
+    axes = list(axes[:, 0])
     sty = _styles(labels, widest=1.6, thinnest=0.8, dashed_raw=False, plan=plan)
-    ax = axes[0]
-    for lab, y in zip(labels, outs):
-        if lab != "oracle":
-            ax.plot(t, y / DPS, label=lab, alpha=0.85, **sty[lab])
+    ax = axes.pop(0)
+    if "raw" in it.outputs:
+        ax.plot(t, raw_out / DPS, label="raw", alpha=0.85, **sty["raw"])
     ax.plot(t, truth / DPS, color=COLORS["truth"], lw=1.4, ls="--", label="truth", zorder=10)
-    ax.set_ylabel(f"rate, {PAL.RATE_UNIT}")
+    ax.set_ylabel(f"rate, {PAL.RATE_UNIT}", fontsize=9)
     _min_span(ax, PAL.RATE_UNIT)
-    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
-    ax.set_title(f"{it.protocol} / {it.run}: output and truth")
-    ax = axes[1]
-    for lab, y in zip(labels, outs):
-        ax.plot(t, (y - truth) / DPH, label=lab, alpha=0.85, **sty[lab])
-    ax.set_ylabel(f"error vs truth, {PAL.ERROR_UNIT}")
-    _min_span(ax, PAL.ERROR_UNIT)
-    ax.set_xlabel(f"time since power-on, {tname}")
-    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
+    ax.legend(**LEGEND)
+    ax.set_title(f"{it.protocol} / {it.run}: raw output and truth; below, the error against "
+                 "the truth", fontsize=10)
+    if ref_panel:
+        ax = axes.pop(0)
+        # the errors as they are, and raw's k-sample moving mean: what the panels below take
+        # out (kind "trend") or show (kind "fast")
+        for lab in ("oracle", "raw"):
+            if lab in big or (lab == "raw" and kind is not None):
+                ax.plot(t, errs[lab][::step], label=f"{lab}", alpha=0.85, **sty[lab])
+        if kind is not None and "raw" in errs:
+            ax.plot(t, _moving_mean(errs["raw"], k)[::step], color="black", lw=1.2, zorder=9,
+                    label=f"raw's {k}-sample moving mean"
+                          + ("; taken out below" if kind == "trend" else "; below for each"))
+        ax.set_ylabel(f"error, {PAL.ERROR_UNIT}", fontsize=9)
+        _min_span(ax, PAL.ERROR_UNIT)
+        ax.legend(**LEGEND)
+    pad = 0.05 * max(width, 1e-12)
+    what = {"trend": "error - raw's trend", "fast": f"error, {k}-sample mean"}.get(
+        kind, "error vs truth")
+    dt = k / p.fs
+    note = {"trend": "; raw's trend taken out of every curve: no method removes it",
+            "fast": f"; {k}-sample ({dt:.3g} s) moving means: every method keeps raw's faster "
+                    "noise"}.get(kind, "")
+    for i, chunk in enumerate(panels):
+        ax = axes[i]
+        for lab in fixed:
+            ax.plot(t, cur[lab], label=lab, alpha=0.85, **sty[lab])
+        for e in chunk:
+            _draw_entry(ax, t, cur, e, sty, alpha=0.9)
+        if methods:
+            ax.set_ylim(lo - pad, hi + pad)
+        _min_span(ax, PAL.ERROR_UNIT)
+        ax.set_ylabel(f"{what}, {PAL.ERROR_UNIT}", fontsize=9)
+        ax.legend(**LEGEND)
+        if i == 0:
+            ax.set_title("methods' error, zoomed to them"
+                         + (f" ({', '.join(big)} above: off this scale)" if big else "")
+                         + note, fontsize=9)
+    fig.axes[-1].set_xlabel(f"time since power-on, {tname}")
     _save(fig, path)
     return step
 
@@ -238,9 +466,9 @@ def _psd_ylim(curves: dict[str, np.ndarray]) -> tuple[float, float]:
 
 def fig_psd(it, path: Path, plan=None):
     """Welch PSD of each output's error against the truth (mean removed), (deg/h)^2/Hz, as in
-    the recording."""
+    the recording; a sweep as the envelope of its members' spectra with its default's line, at
+    most MAX_LINES lines a panel (raw and oracle in each)."""
     p = it.piece
-    fig, ax = plt.subplots(figsize=(8, 4.5))
     nper = min(p.raw.size, 1024)
     labels = list(it.outputs)
     sty = _styles(labels, plan=plan)
@@ -250,20 +478,31 @@ def fig_psd(it, path: Path, plan=None):
         f, s = M.psd(e - np.mean(e), p.fs, nperseg=nper)
         curves[lab] = s[1:]
     lo, hi = _psd_ylim(curves)
-    for lab, s in curves.items():
-        below = bool(np.any(s < lo))
-        ax.loglog(f[1:], np.where(s > 0, s, np.nan), **sty[lab],
-                  label=lab + (" (falls below the axis)" if below else ""))
-    ax.set_ylim(lo, hi)
-    ax.set_xlabel("frequency, Hz")
-    ax.set_ylabel(f"PSD of output - truth, {PAL.PSD_UNIT}")
+    fixed = [lab for lab in ("raw", "oracle") if lab in labels]
+    panels = _chunks(_entries(labels, plan), MAX_LINES - len(fixed), plan)
+    fig, axes = plt.subplots(len(panels), 1, figsize=(8.8, 0.6 + 3.9 * len(panels)),
+                             sharex=True, sharey=True, squeeze=False)
+    shown = {lab: np.where(s > 0, s, np.nan) for lab, s in curves.items()}
+    for ax, chunk in zip(axes[:, 0], panels):
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        for lab in fixed:
+            ax.plot(f[1:], shown[lab], **sty[lab], label=lab)
+        for e in chunk:
+            below = any(bool(np.any(curves[m] < lo)) for m in e["members"])
+            for ln in _draw_entry(ax, f[1:], shown, e, sty):
+                if below:
+                    ln.set_label(ln.get_label() + " (falls below the axis)")
+        ax.set_ylim(lo, hi)
+        ax.set_ylabel(f"PSD of output - truth, {PAL.PSD_UNIT}", fontsize=9)
+        ax.legend(**LEGEND)
+    axes[-1, 0].set_xlabel("frequency, Hz")
     from .recording import psd_interval
 
     lo_f, hi_f, edf = psd_interval(p.raw.size, nper, ALLAN_CI)
-    ax.set_title(f"{it.protocol} / {it.run}: PSD of the error (Welch, mean removed)\n"
-                 f"{100 * ALLAN_CI:.0f} % interval of every value: x{lo_f:.2f} to x{hi_f:.2f} "
-                 f"(chi-square, EDF {edf:.0f})", fontsize=9)
-    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
+    axes[0, 0].set_title(f"{it.protocol} / {it.run}: PSD of the error (Welch, mean removed)\n"
+                         f"{100 * ALLAN_CI:.0f} % interval of every value: x{lo_f:.2f} to "
+                         f"x{hi_f:.2f} (chi-square, EDF {edf:.0f})", fontsize=9)
     _save(fig, path)
 
 
@@ -296,42 +535,89 @@ def fig_allan(it, path: Path, plan=None) -> bool:
     one-sigma chi-square interval as a band (EDF of the noise type leading each tau,
     fogcomp.allan.oadev_ci), drawn up to the longest tau with at least
     fogbench.palette.ALLAN_MIN_CLUSTERS non-overlapping clusters; over raw and oracle the noise
-    model the bench identified (dotted) where it identifies one."""
+    model the bench identified (dotted) where it identifies one. A sweep: the envelope of its
+    members' curves and its default's line with its band; at most MAX_LINES lines a panel."""
     p = it.piece
     if p.raw.size < 64:
         return False
-    fig, ax = plt.subplots(figsize=(8.8, 4.8))
     labels = list(it.outputs)
     sty = _styles(labels, markers=True, plan=plan)
     cut = None
+    ads, keeps = {}, {}
     for lab, y in it.outputs.items():
         ad = oadev_ci(y - p.truth, p.fs, ci=ALLAN_CI)
         keep = PAL.allan_drawn(ad.m, ad.n) & np.isfinite(ad.adev) & (ad.adev > 0)
         cut = ad.taus[keep][-1] if keep.any() else cut
-        ax.loglog(ad.taus[keep], ad.adev[keep] / DPH, label=lab, **sty[lab])
-        ax.fill_between(ad.taus[keep], ad.low[keep] / DPH, ad.high[keep] / DPH,
-                        color=sty[lab]["color"], alpha=0.13, lw=0, zorder=1.0)
+        ads[lab], keeps[lab] = ad, keep
+    models = []
     if _has_noise_model(p):
         for lab in ("raw", "oracle"):
-            if lab not in it.outputs:
-                continue
-            nm = _noise_model(it.outputs[lab] - p.truth, p.fs)
-            if nm is None or not nm.in_model:
-                continue
+            if lab in it.outputs:
+                nm = _noise_model(it.outputs[lab] - p.truth, p.fs)
+                if nm is not None and nm.in_model:
+                    models.append((lab, nm))
+    fixed = [lab for lab in ("raw", "oracle") if lab in labels]
+    panels = _chunks(_entries(labels, plan), MAX_LINES - len(fixed) - len(models), plan)
+    fig, axes = plt.subplots(len(panels), 1, figsize=(9.2, 0.8 + 4.0 * len(panels)),
+                             sharex=True, sharey=True, squeeze=False)
+    last = max((int(np.flatnonzero(k)[-1]) for k in keeps.values() if k.any()), default=0)
+    taus = ads[labels[0]].taus[:last + 1]      # one record length: every output's taus
+    shown = {lab: np.where(keeps[lab], ads[lab].adev / DPH, np.nan)[:last + 1]
+             for lab in labels}
+
+    def band(ax, lab):
+        ad, keep = ads[lab], keeps[lab]
+        ax.fill_between(ad.taus[keep], ad.low[keep] / DPH, ad.high[keep] / DPH,
+                        color=sty[lab]["color"], alpha=0.13, lw=0, zorder=1.0)
+
+    for ax, chunk in zip(axes[:, 0], panels):
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        for lab in fixed:
+            ax.plot(taus, shown[lab], label=lab, **sty[lab])
+            band(ax, lab)
+        for e in chunk:
+            _draw_entry(ax, taus, shown, e, sty)
+            band(ax, e["default"])
+        for lab, nm in models:
             tt = np.geomspace(1.0 / p.fs, cut or p.raw.size / p.fs / PAL.ALLAN_MIN_CLUSTERS, 60)
-            ax.loglog(tt, nm.model_adev(tt) / DPH, color=sty[lab]["color"], lw=1.0,
-                      ls=":", zorder=9.0,
-                      label=f"{lab}: identified model {nm.spec()}")
-    ax.set_xlabel("averaging time tau, s")
-    ax.set_ylabel(f"Allan deviation of (output - truth), {PAL.ERROR_UNIT}")
-    ax.set_title(f"{it.protocol} / {it.run}: overlapping Allan deviation\n"
-                 f"bands: {100 * ALLAN_CI:.0f} % interval (chi-square, EDF of the leading "
-                 f"noise type); drawn while >= {PAL.ALLAN_MIN_CLUSTERS} non-overlapping "
-                 "clusters remain", fontsize=9)
-    ax.grid(True, which="both", lw=0.3)
-    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
+            ax.plot(tt, nm.model_adev(tt) / DPH, color=sty[lab]["color"], lw=1.0, ls=":",
+                    zorder=9.0, label=f"{lab}: identified model {nm.spec()}")
+        ax.set_ylabel(f"Allan deviation of (output - truth), {PAL.ERROR_UNIT}", fontsize=9)
+        ax.grid(True, which="both", lw=0.3)
+        ax.legend(**LEGEND)
+    axes[-1, 0].set_xlabel("averaging time tau, s")
+    axes[0, 0].set_title(f"{it.protocol} / {it.run}: overlapping Allan deviation\n"
+                         f"bands: {100 * ALLAN_CI:.0f} % interval (chi-square, EDF of the leading "
+                         f"noise type); drawn while >= {PAL.ALLAN_MIN_CLUSTERS} non-overlapping "
+                         "clusters remain", fontsize=9)
     _save(fig, path)
     return True
+
+
+def shows_time_structure(p) -> bool:
+    """Whether a scored piece gets Allan deviation and PSD figures: only a contiguous record.
+
+    The rule: a piece of separate static dwells (samples joined across gaps, a multi-position
+    test) is scored by the mean error of each dwell (``drift_rms_dph``: a constant bias, a
+    g-dependent drift at each position), and the bench computes no noise metric on it
+    (fogbench.runner.score: ARW, bias instability, 100 s bias stability only on a contiguous
+    record). An Allan deviation or a PSD of stitched dwells cannot show a per-dwell constant
+    (the PSD removes the mean; within a dwell a constant has no Allan deviation) and measures
+    the jumps at the joins instead, so neither is drawn; the dwell-means figure shows the
+    effect."""
+    return not np.any(np.diff(p.t) > 1.5 / p.fs)
+
+
+def thermal_run(res: ScenarioResult) -> str:
+    """The run ``thermal.png`` shows: the first scored run with a thermal program (the run the
+    verdicts are about), else the first run."""
+    for it in res.scored:
+        for run in it.run.split("+"):
+            rd = res.data.get(run)
+            if rd is not None and rd.run.thermal is not None and rd.run.thermal.steps:
+                return run
+    return next(iter(res.data))
 
 
 def fig_thermal(res: ScenarioResult, run: str, path: Path) -> bool:
@@ -361,14 +647,16 @@ def fig_thermal(res: ScenarioResult, run: str, path: Path) -> bool:
     _min_span(ax2, "deg C/min")
     h1, l1 = ax.get_legend_handles_labels()
     h2, l2 = ax2.get_legend_handles_labels()
-    ax.legend(h1 + h2, l1 + l2, loc="upper left", fontsize=8)
-    ax.set_title(f"{run}: chamber program, FOG temperatures and raw bias")
+    ax.legend(h1 + h2, l1 + l2, **{**LEGEND, "bbox_to_anchor": (1.1, 1.0)})  # past ax2's label
+    scored = sorted({it.protocol for it in getattr(res, "scored", ()) if run in it.run.split("+")})
+    ax.set_title(f"{run}" + (f" (scored by {', '.join(scored)})" if scored else "")
+                 + ": chamber program, FOG temperatures and raw bias", fontsize=10)
     axes[1].plot(t, bias, lw=0.8, color="0.4",
                  label=f"raw output - truth (100 s means of {k} samples)")
     axes[1].set_ylabel(f"bias, {PAL.ERROR_UNIT}")
     _min_span(axes[1], PAL.ERROR_UNIT)
     axes[1].set_xlabel(f"time since power-on, {tname}")
-    axes[1].legend(fontsize=8)
+    axes[1].legend(**{**LEGEND, "bbox_to_anchor": (1.1, 1.0)})
     _save(fig, path)
     return True
 
@@ -503,6 +791,12 @@ def render_report(res: ScenarioResult, fig_names: dict, decimation: dict) -> str
             if (prot.name, run) in decimation and decimation[(prot.name, run)] > 1:
                 L += [f"(Time series decimated by {decimation[(prot.name, run)]} for display "
                       "only; metrics use every sample.)", ""]
+        stitched = [x.run for x in res.scored
+                    if x.protocol == prot.name and not shows_time_structure(x.piece)]
+        if stitched:
+            L += [f"(No Allan deviation or PSD figure of {', '.join(stitched)}: each scored "
+                  "piece is made of separate static dwells, scored by each dwell's mean error, "
+                  "which neither can show; the dwell-means figures above show it.)", ""]
         fn = fig_names.get((prot.name, None, "coefficients"))
         if fn:
             L += [_coef_table(res, prot.name), "", f"![coefficients]({fn})", ""]
@@ -786,10 +1080,13 @@ def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_d
                 continue
             decim[key] = figure(f"{base} time series", fig_timeseries, it,
                                 tmp / "figures" / f"{base}__timeseries.png", res.plan) or 1
+            if (tmp / "figures" / f"{base}__timeseries.png").exists():
+                fig_names[(it.protocol, it.run, "timeseries")] = f"figures/{base}__timeseries.png"
+            if not shows_time_structure(it.piece):
+                continue        # no Allan deviation or PSD of stitched dwells (the rule above)
             figure(f"{base} PSD", fig_psd, it, tmp / "figures" / f"{base}__psd.png", res.plan)
-            for kind in ("timeseries", "psd"):
-                if (tmp / "figures" / f"{base}__{kind}.png").exists():
-                    fig_names[(it.protocol, it.run, kind)] = f"figures/{base}__{kind}.png"
+            if (tmp / "figures" / f"{base}__psd.png").exists():
+                fig_names[(it.protocol, it.run, "psd")] = f"figures/{base}__psd.png"
             if figure(f"{base} Allan", fig_allan, it, tmp / "figures" / f"{base}__allan.png",
                       res.plan):
                 fig_names[(it.protocol, it.run, "allan")] = f"figures/{base}__allan.png"
@@ -798,8 +1095,7 @@ def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_d
                       tmp / "figures" / f"{prot.name}__coefficients.png"):
                 fig_names[(prot.name, None, "coefficients")] = \
                     f"figures/{prot.name}__coefficients.png"
-        first = next(iter(res.data))
-        if figure("thermal", fig_thermal, res, first, tmp / "figures" / "thermal.png"):
+        if figure("thermal", fig_thermal, res, thermal_run(res), tmp / "figures" / "thermal.png"):
             fig_names[("thermal",)] = "figures/thermal.png"
         if montecarlo is not None:
             if figure("replicate distributions", fig_replicates, res, montecarlo,

@@ -131,13 +131,21 @@ def figs(monkeypatch):
 
 
 def _png_colours(fig) -> dict[str, tuple]:
-    out = {}
-    for ln in fig.axes[0].get_lines():
-        lab = ln.get_label()
-        if not lab.startswith("_") and ":" not in lab:
-            from matplotlib.colors import to_rgb
+    """label -> colour of every line of every panel; a sweep's default line
+    ("<group> default (<setting>)", the sweep drawn as an envelope) under its member's label."""
+    import re
 
-            out[lab] = tuple(int(round(255 * v)) for v in to_rgb(ln.get_color()))
+    from matplotlib.colors import to_rgb
+
+    out = {}
+    for ax in fig.axes:
+        for ln in ax.get_lines():
+            lab = ln.get_label()
+            if not lab.startswith("_") and ":" not in lab:
+                lab = lab.split(" (falls below")[0]
+                m = re.fullmatch(r"(\S+) default \((.+)\)", lab)
+                lab = f"{m.group(1)}.{m.group(2)}" if m else lab
+                out[lab] = tuple(int(round(255 * v)) for v in to_rgb(ln.get_color()))
     return out
 
 
@@ -149,7 +157,9 @@ def test_viewer_and_png_give_a_label_the_same_colour(figs, tmp_path, path):
     assert R.fig_allan(it, tmp_path / "a.png", plan=plan)
     png = _png_colours(figs[-1])
     viewer = REC._method_colors(SimpleNamespace(plan=plan))
-    assert set(png) == {"raw", "oracle", *labels}
+    # a sweep is one envelope with its default setting's line (fogbench.report._entries)
+    shown = [m.label for m in plan.methods if not m.group or m.paper_setting]
+    assert set(png) == {"raw", "oracle", *shown}
     for lab, c in png.items():
         assert tuple(REC._piece_color(viewer, lab, False)[:3]) == c, lab
     # the time series and PSD figures use the same colours

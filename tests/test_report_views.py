@@ -1,0 +1,325 @@
+"""Views that show the effect (issue 26): the PNG time series, PSD and Allan figures of
+fogbench/report.py draw a sweep as an envelope (its default marked), at most 8 lines a panel with
+legends outside the data, the methods' errors zoomed to them with raw in a panel of its own when
+it dwarfs them, what every output keeps alike taken out; Allan and PSD figures are left out (not
+written, not linked) for pieces made of separate static dwells; thermal.png shows a scored run.
+
+Every expected value is recomputed here from the inputs with plain Python loops or scipy, not by
+calling the report's own helpers.
+"""
+
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from fogbench import report as R
+from fogbench.runner import Piece, Scored
+from fogcomp.units import DPH
+
+
+@pytest.fixture
+def figs(monkeypatch):
+    kept = []
+    monkeypatch.setattr(R, "_save", lambda fig, path: kept.append(fig))
+    yield kept
+    import matplotlib.pyplot as plt
+
+    for f in kept:
+        plt.close(f)
+
+
+def _spec(label, name, group=None, paper=False):
+    return SimpleNamespace(label=label, name=name, group=group, paper_setting=paper,
+                           setting={}, params={})
+
+
+SWEEP = [f"band.level-{lv}" for lv in (3, 4, 5, 6)]
+DEFAULT = "band.level-6"
+
+
+def _plan(extra=()):
+    methods = [_spec("kalman", "kalman"), _spec("wnn", "wnn")]
+    methods += [_spec(lab, "wavelet_soft", group="band", paper=(lab == DEFAULT)) for lab in SWEEP]
+    methods += list(extra)
+    return SimpleNamespace(methods=tuple(methods))
+
+
+def _item(outs: dict, truth, fs):
+    n = truth.size
+    t = np.arange(n) / fs
+    piece = Piece(run="r1", fs=fs, t=t, raw=outs["raw"], truth=truth, g=np.zeros((n, 3)),
+                  temp=np.full(n, 20.0), temp_rate=np.zeros(n), oracle=outs["oracle"])
+    return Scored(protocol="p", run="r1", piece=piece, outputs=outs)
+
+
+def _dwarfed_item(n=1500, fs=10.0, seed=0):
+    """raw (and oracle) with a 2000 deg/h ramp and 30 deg/h noise; the methods remove the ramp
+    and leave errors of a few deg/h with noises of their own: nothing kept alike."""
+    rng = np.random.default_rng(seed)
+    truth = np.full(n, 0.01)                         # rad/s, a constant rate
+    ramp = np.linspace(-1000.0, 1000.0, n) * DPH
+    raw = truth + ramp + rng.standard_normal(n) * 30.0 * DPH
+    outs = {"raw": raw, "oracle": raw - 0.5 * ramp}
+    for i, lab in enumerate(["kalman", "wnn"] + SWEEP):
+        outs[lab] = truth + (1.0 + 0.3 * i) * rng.standard_normal(n) * DPH + (0.2 * i) * DPH
+    return _item(outs, truth, fs)
+
+
+DPS_ = math.pi / 180.0      # rad/s per deg/s
+
+
+def _envelope(ax, group):
+    got = [c for c in ax.collections if c.get_gid() == f"envelope:{group}"]
+    assert len(got) == 1
+    v = got[0].get_paths()[0].vertices
+    lo, hi = {}, {}
+    for x, y in v:
+        k = round(float(x), 9)
+        lo[k] = min(lo.get(k, math.inf), y)
+        hi[k] = max(hi.get(k, -math.inf), y)
+    xs = sorted(lo)
+    return np.array(xs), np.array([lo[x] for x in xs]), np.array([hi[x] for x in xs])
+
+
+def test_a_sweep_is_drawn_as_the_envelope_of_its_members_with_its_default_marked(figs, tmp_path):
+    it = _dwarfed_item()
+    plan = _plan()
+    R.fig_timeseries(it, tmp_path / "t.png", plan=plan)
+    fig = figs[-1]
+    axes = [ax for ax in fig.axes
+            if any(c.get_gid() == "envelope:band" for c in ax.collections)]
+    assert len(axes) == 1
+    ax = axes[0]
+    xs, lo, hi = _envelope(ax, "band")
+    # by hand: at every sample, the best and the worst member's error, deg/h
+    p = it.piece
+    want_lo, want_hi = [], []
+    for i in range(p.t.size):
+        vals = [(it.outputs[m][i] - p.truth[i]) / DPH for m in SWEEP]
+        want_lo.append(min(vals))
+        want_hi.append(max(vals))
+    np.testing.assert_allclose(xs, p.t, atol=1e-9)
+    np.testing.assert_allclose(lo, want_lo, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(hi, want_hi, rtol=1e-12, atol=1e-12)
+    # one line per sweep, the default's, named as such; no member has a line of its own
+    labels = [ln.get_label() for a in fig.axes for ln in a.get_lines()]
+    assert not any(lab in SWEEP for lab in labels)
+    default = [ln for a in fig.axes for ln in a.get_lines()
+               if ln.get_label().startswith("band default")]
+    assert len(default) == 1 and "level-6" in default[0].get_label()
+    np.testing.assert_allclose(default[0].get_ydata(),
+                               (it.outputs[DEFAULT] - p.truth) / DPH, rtol=1e-12)
+
+
+def test_the_psd_envelope_is_the_members_welch_spectra(figs, tmp_path):
+    from scipy.signal import welch
+
+    it = _dwarfed_item()
+    R.fig_psd(it, tmp_path / "p.png", plan=_plan())
+    ax = next(a for a in figs[-1].axes if any(c.get_gid() == "envelope:band"
+                                              for c in a.collections))
+    xs, lo, hi = _envelope(ax, "band")
+    p = it.piece
+    spectra = []
+    for m in SWEEP:
+        e = (it.outputs[m] - p.truth) / DPH
+        f, s = welch(e - e.mean(), fs=p.fs, window="hann", nperseg=min(e.size, 1024),
+                     noverlap=min(e.size, 1024) // 2)
+        spectra.append(s[1:])
+    np.testing.assert_allclose(xs, f[1:], rtol=1e-9)
+    np.testing.assert_allclose(lo, np.min(spectra, axis=0), rtol=1e-9)
+    np.testing.assert_allclose(hi, np.max(spectra, axis=0), rtol=1e-9)
+
+
+@pytest.mark.parametrize("kind", ["timeseries", "psd", "allan"])
+def test_no_panel_has_more_than_eight_lines_and_legends_stay_outside_the_data(figs, tmp_path,
+                                                                              kind):
+    # 12 methods of their own families besides the sweep: more than one panel is needed
+    extra = [_spec(f"m{i}", f"plugin{i}") for i in range(12)]
+    plan = _plan(extra)
+    it = _dwarfed_item()
+    rng = np.random.default_rng(5)
+    for s in extra:
+        it.outputs[s.label] = it.piece.truth + rng.standard_normal(it.piece.t.size) * 3.0 * DPH
+    fn = {"timeseries": R.fig_timeseries, "psd": R.fig_psd, "allan": R.fig_allan}[kind]
+    fn(it, tmp_path / "f.png", plan=plan)
+    fig = figs[-1]
+    fig.canvas.draw()
+    drawn = set()
+    for ax in fig.axes:
+        assert len(ax.get_lines()) <= 8, (kind, [ln.get_label() for ln in ax.get_lines()])
+        drawn |= {ln.get_label().split(" (falls below")[0] for ln in ax.get_lines()}
+        leg = ax.get_legend()
+        if leg is not None:
+            assert leg.get_window_extent().x0 >= ax.get_window_extent().x1 - 1e-6
+    # nothing is lost: every method that is not a sweep member, and the sweep's default
+    want = {"kalman", "wnn"} | {s.label for s in extra}
+    assert want <= drawn
+    assert any(lab.startswith("band default") for lab in drawn)
+
+
+def test_the_zoom_holds_every_method_and_raw_gets_its_own_panel_when_it_dwarfs_them(figs,
+                                                                                     tmp_path):
+    it = _dwarfed_item()
+    R.fig_timeseries(it, tmp_path / "t.png", plan=_plan())
+    fig = figs[-1]
+    p = it.piece
+    method_axes = [ax for ax in fig.axes
+                   if any(ln.get_label() == "kalman" for ln in ax.get_lines())]
+    assert method_axes
+    raw_err = (it.outputs["raw"] - p.truth) / DPH
+    for ax in method_axes:
+        lo, hi = ax.get_ylim()
+        for m in ["kalman", "wnn"] + SWEEP:
+            e = (it.outputs[m] - p.truth) / DPH
+            assert lo <= e.min() and e.max() <= hi, m
+        # raw (+-1000 deg/h) is not on this axis: neither its line nor its range
+        assert raw_err.min() < lo and raw_err.max() > hi
+        assert "raw" not in [ln.get_label() for ln in ax.get_lines()]
+        assert hi - lo < 0.2 * (raw_err.max() - raw_err.min())
+    # raw's error, as it is, in a panel of its own
+    raw_lines = [ln for ax in fig.axes if ax not in method_axes for ln in ax.get_lines()
+                 if ln.get_label() == "raw" and "error" in ax.get_ylabel()]
+    assert len(raw_lines) == 1
+    np.testing.assert_allclose(raw_lines[0].get_ydata(), raw_err, rtol=1e-12)
+
+
+def _slow_moving_mean(y, k):
+    h = k // 2
+    out = []
+    for i in range(len(y)):
+        a, b = max(0, i - h), min(len(y), i + h + 1)
+        out.append(sum(y[a:b]) / (b - a))
+    return np.array(out)
+
+
+def test_a_wander_no_denoiser_removes_is_taken_out_of_every_curve(figs, tmp_path):
+    """Denoisers under a +-500 deg/h wander: every method keeps raw's slow error, so the
+    methods' panels show each error minus raw's moving mean over 1/50 of the piece."""
+    n, fs = 2000, 100.0
+    rng = np.random.default_rng(2)
+    truth = np.full(n, -60.0 * DPS_)
+    wander = 500.0 * np.sin(2 * np.pi * np.arange(n) / n * 3.0) * DPH
+    raw = truth + wander + rng.standard_normal(n) * 200.0 * DPH
+    outs = {"raw": raw, "oracle": raw.copy()}
+    for i, lab in enumerate(["kalman", "wnn"] + SWEEP):
+        outs[lab] = truth + wander + rng.standard_normal(n) * (20.0 + 5 * i) * DPH
+    it = _item(outs, truth, fs)
+    R.fig_timeseries(it, tmp_path / "t.png", plan=_plan())
+    fig = figs[-1]
+    k = round(n / 50)
+    trend = _slow_moving_mean(list((raw - truth) / DPH), k)
+    ln = next(ln for ax in fig.axes for ln in ax.get_lines() if ln.get_label() == "kalman")
+    np.testing.assert_allclose(ln.get_ydata(), (outs["kalman"] - truth) / DPH - trend,
+                               rtol=1e-9, atol=1e-9)
+    assert "trend" in ln.axes.get_ylabel()
+    # the wander is gone from the methods' panel: it spans their noise, not the 1000 deg/h
+    lo, hi = ln.axes.get_ylim()
+    assert hi - lo < 500.0
+
+
+def test_a_fast_noise_no_drift_model_removes_is_averaged_out(figs, tmp_path):
+    """Thermal drift models under white noise: every method keeps raw's fast noise, so the
+    methods' panels draw each error's moving mean over 1/50 of the piece."""
+    n, fs = 3000, 1.0
+    rng = np.random.default_rng(4)
+    truth = np.zeros(n)
+    drift = np.linspace(0.0, 3.0, n) * DPH
+    noise = rng.standard_normal(n) * 2.0 * DPH
+    raw = truth + drift + noise
+    outs = {"raw": raw, "oracle": truth + noise}
+    for i, lab in enumerate(["kalman", "wnn"] + SWEEP):
+        outs[lab] = truth + noise + 0.05 * (i + 1) * np.sin(np.arange(n) / 300.0) * DPH
+    it = _item(outs, truth, fs)
+    R.fig_timeseries(it, tmp_path / "t.png", plan=_plan())
+    k = round(n / 50)
+    ln = next(ln for ax in figs[-1].axes for ln in ax.get_lines() if ln.get_label() == "wnn")
+    np.testing.assert_allclose(ln.get_ydata(),
+                               _slow_moving_mean(list((outs["wnn"] - truth) / DPH), k),
+                               rtol=1e-9, atol=1e-12)
+    assert f"{k}-sample mean" in ln.axes.get_ylabel()
+
+
+TINY_POSITIONS = """
+[scenario]
+name = "tiny_positions"
+sample_rate_hz = 10.0
+
+[fog]
+preset = "tactical"
+axes = ["z"]
+
+[[runs]]
+name = "a"
+seed = 1
+[[runs.motion]]
+type = "positions"
+tilts_deg = [0.0, 90.0, 180.0]
+headings_deg = [0.0]
+move_s = 10.0
+dwell_s = 20.0
+
+[[runs]]
+name = "b"
+seed = 2
+[[runs.motion]]
+type = "positions"
+tilts_deg = [0.0, 90.0, 180.0]
+headings_deg = [0.0]
+move_s = 10.0
+dwell_s = 20.0
+
+[[runs]]
+name = "c"
+seed = 3
+[[runs.motion]]
+type = "hold"
+duration_s = 40.0
+
+[[protocols]]
+name = "p"
+fit = [{ run = "a", static_only = true }]
+score = [{ run = "b", static_only = true }, "c"]
+
+[[methods]]
+name = "wavelet_soft"
+"""
+
+
+def test_allan_and_psd_of_stitched_dwells_are_neither_written_nor_linked(tmp_path):
+    from fogbench.runner import run_scenario
+
+    path = tmp_path / "tiny.toml"
+    path.write_text(TINY_POSITIONS)
+    res = run_scenario(path)
+    pieces = {it.run: it.piece for it in res.scored}
+    # by hand: b's static samples jump over the moves between positions, c is contiguous
+    assert max(np.diff(pieces["b"].t)) > 1.5 / pieces["b"].fs
+    assert max(np.diff(pieces["c"].t)) < 1.5 / pieces["c"].fs
+    out = R.write_run_dir(res, tmp_path / "out", recording=False, save_data=False)
+    figs_dir = out / "figures"
+    report = (out / "report.md").read_text()
+    for kind in ("psd", "allan"):
+        assert not (figs_dir / f"p__b__{kind}.png").exists()
+        assert f"p__b__{kind}.png" not in report
+        # the rule is not "no Allan/PSD at all": the contiguous piece has both
+        assert (figs_dir / f"p__c__{kind}.png").exists()
+        assert f"figures/p__c__{kind}.png" in report
+    assert (figs_dir / "p__b__timeseries.png").exists()
+    assert "No Allan deviation or PSD figure of b" in report
+
+
+def test_thermal_png_shows_a_scored_run_not_the_fit_run():
+    prog = SimpleNamespace(steps=(1,))
+    data = {"fit": SimpleNamespace(run=SimpleNamespace(thermal=prog)),
+            "test": SimpleNamespace(run=SimpleNamespace(thermal=prog))}
+    res = SimpleNamespace(data=data, scored=[SimpleNamespace(protocol="p", run="test")])
+    assert R.thermal_run(res) == "test"
+    # a concatenated piece "x+test": the first of its runs that has a thermal program
+    data["x"] = SimpleNamespace(run=SimpleNamespace(thermal=None))
+    res.scored = [SimpleNamespace(protocol="p", run="x+test")]
+    assert R.thermal_run(res) == "test"

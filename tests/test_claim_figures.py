@@ -61,6 +61,7 @@ duration_s = 150.0
 
 [[protocols]]
 name = "own_run"
+reference = "truth"      # one reading: the figures, not the lab's references, are tested here
 fit = [{ run = "*", end_s = 75.0 }]
 score = [{ run = "*", start_s = 75.0 }]
 

@@ -46,7 +46,8 @@ a protocol scores the same run more than once; `<label>`: `raw`, `oracle` or a m
 | `/report/allan/<protocol>/<run>/<label>/ci` | its 68.3 % confidence interval at every tau: one vertical segment per tau, same coordinates |
 | `/report/psd/<protocol>/<run>`, `.../<label>` | the same for the Welch PSD of (output - truth), mean removed: (log10 f/Hz, log10 PSD/((deg/h)^2/Hz)); the interval is one factor for every frequency, stated in the legend |
 | `/replicates/<protocol>/<metric>/<label>` | with Monte Carlo replicates: the metric of each replicate on the sequence timeline `replicate` (points) |
-| `/replicates/summary` | the distribution of every replicated metric: median and 5-95 % range (markdown, static) |
+| `/replicates/summary` | the distribution of every replicated metric: median, 5-95 % range, finite replicates, one table per protocol and metric, the headline metrics first (markdown, static) |
+| `/report/replicates/<metric>` | a dot plot of a headline metric over the replicates (static, 2-D view origin), a column per protocol: `names` (a row per label, named left of the columns), `title`; `<protocol>/axes` (grid, tick labels, the protocol's name), `<protocol>/<label>` the dots, one per replicate, at (value or its log10, row) under the transform onto the column, `<protocol>/<label>/range` its 5-95 % bar and median tick (`.../off_scale`: the note of a label drawn off scale) |
 
 Scored pieces are logged at their own sample times (``Piece.t``): a subset of the run, and for
 smoothed protocols the block means at the blocks' mean times. A method that failed has no
@@ -81,8 +82,29 @@ each scored run (one tab per run: raw, oracle and every method of every protocol
 legend above the data) and the temperatures. Further tabs: "Errors" (every scored run side by
 side), "Table and chamber" (rate of every run, truth and raw; tilt; turntable rate; gravity; coil
 dT/dt; temperatures), "FOG error terms" (a plot per run), "Allan deviation" and "PSD" (a log-log
-plot per scored piece), "Monte Carlo" (with replicates) and "Report". Only the `replicate`
-timeline is not `sim_time`: picking it shows the replicate plots and blanks the others.
+plot per scored piece), "Monte Carlo" (with replicates) and "Report".
+
+Legends list every line: the members of a sweep share one entry, ``<group> (<n> settings)``, in
+their family's hue (a viewer legend merges equal names; the shades tell the members apart), and
+in a time series the methods of an in-sample protocol share one, ``<protocol> (in-sample):
+every method, lighter`` (a view of a held-out and an in-sample protocol would otherwise list 2 x
+the methods, more than a plot holds: the viewer's legend cuts off what does not fit). The
+Allan and PSD tabs hold at most ``MAX_LOGLOG_VIEWS`` plots, else a tab per protocol (so that
+each plot holds its legend). The log-log plots label at most ``LOGLOG_MAX_LABELS`` decades an
+axis (every k-th; the grid keeps every decade) and span at most ``LOGLOG_MAX_DECADES`` decades
+in y: lower values (a filtered output's PSD falling towards 0) are drawn on the floor; their
+legend is right of the plot.
+
+"Monte Carlo" (with replicates): the summary table (numbers first, the label last, so that long
+labels do not push them off the panel) beside one dot plot per headline metric
+(:func:`headline_metrics`: the metrics the claims are about, else the report's key metric), a
+column per protocol on one x scale: a row per label, a dot per replicate, the 5-95 % bar and
+the median tick. The plots
+are static 2-D views: they show whatever timeline is selected (time series on the `replicate`
+timeline showed nothing while `sim_time`, the default, was selected). A label whose median is
+far from all the others (:func:`_off_scale`: paper000's oracle_filter, std 0) gets a note with
+its median instead of stretching the axis over the differences the claims are about. Each
+replicate's values are also on the sequence timeline `replicate` (`/replicates/...`).
 """
 
 from __future__ import annotations
@@ -105,7 +127,8 @@ from .fmt import decimation, fmt, md_table, metrics_table
 
 __all__ = ["write_recording", "view", "blueprint_for", "ReplicatesError", "decimation", "psd_interval",
            "MAX_SERIES_POINTS", "MAX_POSE_POINTS", "TIMELINE", "REPLICATE_TIMELINE",
-           "APPLICATION_ID", "CONFIDENCE"]
+           "APPLICATION_ID", "CONFIDENCE", "headline_metrics", "LOGLOG_MAX_DECADES",
+           "LOGLOG_MAX_LABELS"]
 
 APPLICATION_ID = "fogbench"
 TIMELINE = "sim_time"
@@ -118,6 +141,8 @@ AXIS_ARROW_M = 0.2
 CONFIDENCE = 0.6826894921370859      # 1 sigma, as allantools' default
 CONSTANT_PTP = 1e-6                  # peak to peak below this (display unit): constant
 LEGEND_HEADROOM = 1.0                # error views: empty space above the data, times its span
+MAX_LOGLOG_VIEWS = 6                 # Allan / PSD plots a tab; more: a tab per protocol
+LEGEND_CHAR_W = 0.04                 # 2-D plots: estimated width of a label's character, scene
 
 # geometry of sim/rate_table.xml (half sizes and centres in the body frame, m)
 _BASE_BOXES = (((0.35, 0.30, 0.05), (0.0, 0.0, -0.55)),
@@ -195,6 +220,11 @@ class _Writer:
         self.rr, self.rec = rr, rec
         self.ranges: dict[str, tuple[float, float]] = {}   # path -> (min, max) of what is shown
         self.plots: dict[str, str] = {}                       # log-log plot root -> note
+        self.plot_right: dict[str, float] = {}                # plot root -> right end, scene
+        self.plot_left: dict[str, float] = {}                 # Monte Carlo plot -> left end
+        self.mc_plots: dict[str, str] = {}                    # headline metric -> plot root
+        self.mc_plotted: set[tuple[str, str]] = set()         # (protocol, metric) plotted
+        self.mc_width: dict[str, float] = {}                  # Monte Carlo plot -> box width
 
     def _time(self, t: np.ndarray, timeline: str = TIMELINE):
         ns = np.round(np.asarray(t, dtype=float) * 1e9).astype(np.int64)
@@ -336,14 +366,15 @@ def _log_all(rec, res, reps: dict) -> _Writer:
     piece_decim = []
     ins = _in_sample(res)
     for key, it in zip(_piece_keys(res), res.scored):
-        piece_decim.append(_log_piece(w, key, it, colors, ins.get(it.protocol, False)))
+        piece_decim.append(_log_piece(w, key, it, colors, ins.get(it.protocol, False),
+                                      _legend_names(res)))
     rec.log("/report/metrics", rr.TextDocument(_metrics_text(res, decim, piece_decim),
                                                media_type="text/markdown"), static=True)
     rec.log("/report/scenario", rr.TextDocument(
         f"# Scenario `{sc.name}`\n\n`{sc.path}`\n\n```toml\n{sc.text}\n```\n",
         media_type="text/markdown"), static=True)
     if reps:
-        _log_replicates(w, reps, colors)
+        _log_replicates(w, reps, colors, res.plan)
     return w
 
 
@@ -457,29 +488,52 @@ def _piece_name(lab: str, in_sample: bool) -> str:
     return f"{lab} (in-sample)" if in_sample and lab not in ("raw", "oracle") else lab
 
 
+def _legend_names(res) -> dict[str, str]:
+    """label -> its name in legends: the members of a sweep share their group's name,
+    ``"<group> (<n> settings)"`` (one legend entry: a viewer legend merges equal names), the
+    others their label."""
+    groups: dict[str, list[str]] = {}
+    for m in res.plan.methods:
+        if getattr(m, "group", None):
+            groups.setdefault(m.group, []).append(m.label)
+    return {lab: f"{g} ({len(labs)} settings)" for g, labs in groups.items() for lab in labs}
+
+
+def _series_name(lab: str, in_sample: bool, protocol: str, names: dict) -> str:
+    """The name of a time series of a scored piece (its legend entry): a method of an in-sample
+    protocol is one entry for them all, the lighter tints (the legend of a view holding a
+    held-out and an in-sample protocol lists each method once)."""
+    if in_sample and lab not in ("raw", "oracle"):
+        return f"{protocol} (in-sample): every method, lighter"
+    return names.get(lab, lab)
+
+
 def _piece_color(colors, lab: str, in_sample: bool) -> tuple:
     c = _color(colors, lab)
     return PAL.in_sample(c) if in_sample and lab not in ("raw", "oracle") else c
 
 
-def _log_piece(w: _Writer, key: str, it, colors, in_sample: bool) -> int:
+def _log_piece(w: _Writer, key: str, it, colors, in_sample: bool,
+               names: dict | None = None) -> int:
     """Compensated outputs, errors, Allan deviation and PSD of one scored piece."""
     from fogcomp import metrics as M
     from fogcomp.allan import oadev_ci
 
     p = it.piece
+    names = names or {}
     k = decimation(p.t.size, MAX_SERIES_POINTS)
     s = slice(None, None, k)
     allan, psd = [], []
     nper = 0
     for lab, out in it.outputs.items():
         c = _piece_color(colors, lab, in_sample)
-        name = _piece_name(lab, in_sample)
+        name = _piece_name(names.get(lab, lab), in_sample)        # Allan and PSD legends
+        sname = _series_name(lab, in_sample, it.protocol, names)  # time series legends
         width = 3.0 if lab == "raw" else 1.5
         w.series(_p("runs", it.run, "fog", "compensated", key, lab), p.t[s], out[s] / DPS,
-                 name, c, width)
+                 sname, c, width)
         w.series(_p("runs", it.run, "fog", "error", key, lab), p.t[s],
-                 (out[s] - p.truth[s]) / DPH, name, c, width)
+                 (out[s] - p.truth[s]) / DPH, sname, c, width)
         err = (out - p.truth) / DPH
         if p.raw.size >= 64:
             try:
@@ -520,6 +574,16 @@ def _decade_label(k: int) -> str:
 
 # plot box of the log-log views, scene units of the 2-D view (y grows downwards)
 _PLOT_W, _PLOT_H = 1.6, 1.0
+#: Most decades a log-log plot's y axis spans: lower values (a filtered output's PSD falling to
+#: 1e-13 at high frequencies) are drawn on the axis floor, so the decades that matter stay apart.
+LOGLOG_MAX_DECADES = 8
+#: Most labelled decades per axis: every k-th decade is labelled (the grid keeps every decade).
+LOGLOG_MAX_LABELS = 6
+
+
+def _decade_step(n_decades: int) -> int:
+    """Label every k-th decade: at most ``LOGLOG_MAX_LABELS`` labels on an axis."""
+    return max(1, math.ceil((n_decades + 1) / LOGLOG_MAX_LABELS))
 
 
 def _loglog(w: _Writer, root: str, curves, xlabel: str, ylabel: str, note: str) -> None:
@@ -540,6 +604,7 @@ def _loglog(w: _Writer, root: str, curves, xlabel: str, ylabel: str, note: str) 
     x1 = max(math.ceil(max(v.max() for v in lx)), x0 + 1)
     y0 = math.floor(min(v.min() for v in ly if v.size))
     y1 = max(math.ceil(max(v.max() for v in ly if v.size)), y0 + 1)
+    y0 = max(y0, y1 - LOGLOG_MAX_DECADES)     # lower values are drawn on the floor
     sx, sy = _PLOT_W / (x1 - x0), _PLOT_H / (y1 - y0)
     tf = rr.Transform3D(translation=[-x0 * sx, _PLOT_H + y0 * sy, 0.0], scale=[sx, -sy, 1.0])
     rec.log(f"{root}/axes", tf, static=True)
@@ -548,11 +613,16 @@ def _loglog(w: _Writer, root: str, curves, xlabel: str, ylabel: str, note: str) 
     rec.log(f"{root}/axes/grid", rr.LineStrips2D(grid, colors=[_GRID],
                                                  radii=rr.Radius.ui_points(0.5),
                                                  draw_order=0.0), static=True)
-    dx, dy = 0.12 / sx, 0.06 / sy   # label offsets: 0.12 and 0.06 plot units, in decades
-    pos = [(x, y0 - dy) for x in range(x0, x1 + 1)] + [(x0 - dx, y) for y in range(y0, y1 + 1)]
-    labels = [_decade_label(x) for x in range(x0, x1 + 1)] + \
-        [_decade_label(y) for y in range(y0, y1 + 1)]
-    pos += [((x0 + x1) / 2.0, y0 - 2.4 * dy), (x0 + 0.45 / sx, y1 + 1.3 * dy)]
+    # tick labels (centred on their point): x below the box, y left of it, every k-th decade
+    # (at most LOGLOG_MAX_LABELS); the axis titles clear of them, x under the x labels, y above
+    # the box's top right (the top y label sits at its top left)
+    dx, dy = 0.17 / sx, 0.07 / sy   # label offsets: 0.17 and 0.07 plot units, in decades
+    kx, ky = _decade_step(x1 - x0), _decade_step(y1 - y0)
+    xt = [x for x in range(x0, x1 + 1) if (x - x0) % kx == 0]
+    yt = [y for y in range(y1, y0 - 1, -1) if (y1 - y) % ky == 0]
+    pos = [(x, y0 - dy) for x in xt] + [(x0 - dx, y) for y in yt]
+    labels = [_decade_label(x) for x in xt] + [_decade_label(y) for y in yt]
+    pos += [((x0 + x1) / 2.0, y0 - 2.6 * dy), (x0 + 0.55 * (x1 - x0), y1 + 0.13 / sy)]
     labels += [xlabel, ylabel]
     rec.log(f"{root}/axes/labels", rr.Points2D(pos, labels=labels, radii=rr.Radius.ui_points(0.1),
                                                colors=[(128, 128, 128)], show_labels=True,
@@ -561,12 +631,13 @@ def _loglog(w: _Writer, root: str, curves, xlabel: str, ylabel: str, note: str) 
         path = f"{root}/{w.rr.escape_entity_path_part(lab)}"
         width = 4.0 if lab == "raw" else 1.5
         rec.log(path, tf, static=True)
-        rec.log(path, rr.LineStrips2D([np.column_stack([np.log10(x), np.log10(y)])],
+        rec.log(path, rr.LineStrips2D([np.column_stack([np.log10(x),
+                                                        np.maximum(np.log10(y), y0)])],
                                       colors=[c], radii=rr.Radius.ui_points(width / 2.0),
                                       labels=[name], show_labels=False,
                                       draw_order=10.0 + i), static=True)
         if lo is not None:
-            bars = [[(a, np.log10(b)), (a, np.log10(d))]
+            bars = [[(a, max(np.log10(b), y0)), (a, max(np.log10(d), y0))]
                     for a, b, d in zip(np.log10(x), lo, hi)
                     if b > 0 and np.isfinite(b) and np.isfinite(d)]
             rec.log(f"{path}/ci", rr.LineStrips2D(bars, colors=[c],
@@ -574,16 +645,200 @@ def _loglog(w: _Writer, root: str, curves, xlabel: str, ylabel: str, note: str) 
                                                   draw_order=10.0 + i), static=True)
     # legend: right of the plot box, the name of each curve in its colour (a label is centred
     # on its point)
-    step = 0.12
-    pts = [(_PLOT_W + 0.42, (i + 0.4) * step) for i in range(len(curves))]
+    # (one entry per name: the members of a sweep share one, in their family's colour); a
+    # label's width is estimated at LEGEND_CHAR_W plot units a character to line them up on
+    # their left end
+    entries: dict[str, tuple] = {}
+    for c in curves:
+        entries.setdefault(c[1], c[2][:3])
+    step = min(0.12, (_PLOT_H + 0.25) / max(len(entries), 1))
+    pts = [(_PLOT_W + 0.1 + 0.5 * LEGEND_CHAR_W * len(n), (i + 0.4) * step)
+           for i, n in enumerate(entries)]
     rec.log(f"{root}/legend", rr.Points2D(
-        pts, labels=[c[1] for c in curves], colors=[c[2][:3] for c in curves],
+        pts, labels=list(entries), colors=list(entries.values()),
         radii=rr.Radius.ui_points(0.1), show_labels=True), static=True)
     w.plots[root] = note
+    w.plot_right[root] = _PLOT_W + 0.15 + LEGEND_CHAR_W * max(len(n) for n in entries)
 
 
-def _log_replicates(w: _Writer, reps: dict, colors) -> None:
+def headline_metrics(plan, metrics) -> list[str]:
+    """The metrics of one protocol's replicates that the Monte Carlo tab plots (its headline
+    metrics): every metric a claim of the scenario is about, in the order of the claims, where
+    the protocol has it; else the one the report's distribution figure shows
+    (:func:`fogbench.report.key_metric`); else the first. ``metrics``: ``{metric: {label:
+    values}}``."""
+    out: list[str] = []
+    for c in getattr(plan, "claims", ()):
+        if c.metric in metrics and c.metric not in out:
+            out.append(c.metric)
+    if not out:
+        from .report import key_metric
+
+        have = {m: True for m, labs in metrics.items() if "raw" in labs}
+        km = key_metric({"over_runs": {"_": {"raw": have}}}, "_", plan)
+        out = [km] if km else list(metrics)[:1]
+    return out
+
+
+def _nice_ticks(lo: float, hi: float, n: int = 5) -> list[float]:
+    """About ``n`` round numbers (1, 2 or 5 times a power of ten apart) within [lo, hi]."""
+    if not hi > lo:
+        return [lo]
+    raw = (hi - lo) / n
+    mag = 10.0 ** math.floor(math.log10(raw))
+    step = next(k * mag for k in (1.0, 2.0, 5.0, 10.0) if k * mag >= raw)
+    first = math.ceil(lo / step - 1e-9) * step
+    return [first + i * step for i in range(int((hi - first) / step + 1e-9) + 1)]
+
+
+# Monte Carlo plots: data box width and row height, scene units (y grows downwards)
+_MC_W, _MC_ROW = 1.2, 0.1
+
+
+def _log_mc_plot(w: _Writer, root: str, metric: str, cols: dict, colors) -> None:
+    """A dot plot of one metric over the replicates, static 2-D entities under ``root`` (the
+    origin of its view): ``cols`` ``{protocol: {label: values}}``, a column (box) per protocol
+    side by side on one x scale, a row per label (the union of the protocols' labels, in their
+    order, top to bottom) named left of the boxes, a dot per replicate, the 5-95 % range as a
+    bar and the median as a tick. The x axis is logarithmic (decades) when every value drawn is
+    positive and they span more than a factor 10, else linear. ``{root}/<protocol>/<label>``
+    holds the dots at (x, row), x the value (log axis: its log10), under the transform onto its
+    box; a label far from all the others (:func:`_off_scale`) has no dots there but a note,
+    ``off scale, median ...``, at the box's edge."""
     rr, rec = w.rr, w.rec
+    prots = list(cols)
+    labels = list(dict.fromkeys(lab for pr in prots for lab in cols[pr]))
+    cells = [(pr, lab, np.asarray(cols[pr][lab], float)) for pr in prots for lab in cols[pr]]
+    fin = [v[np.isfinite(v)] for _, _, v in cells]
+    off = _off_scale(fin)
+    on = [f for f, o in zip(fin, off) if not o]
+    allv = np.concatenate(on) if on else np.zeros(0)
+    if allv.size == 0:
+        allv = np.zeros(1)
+    log = bool(np.all(allv > 0) and allv.max() > 10.0 * allv.min())
+    xs = np.log10(allv) if log else allv
+    lo, hi = float(xs.min()), float(xs.max())
+    if log:
+        lo, hi = math.floor(lo), max(math.ceil(hi), math.floor(lo) + 1)
+    else:
+        pad = 0.08 * (hi - lo) if hi > lo else max(0.5 * abs(lo), 1e-9)
+        lo, hi = lo - pad, hi + pad
+    n = len(labels)
+    box_h = n * _MC_ROW
+    names_w = 0.1 + LEGEND_CHAR_W * max((len(x) for x in labels), default=4)
+    gap = 0.15
+    # the boxes as wide as a plot about twice as wide as tall leaves beside the names
+    box_w = max(_MC_W / len(prots) + 0.3,
+                (2.0 * (box_h + 0.35) - names_w - gap * (len(prots) - 1)) / len(prots))
+    sx = box_w / (hi - lo)
+    if log:
+        k = _decade_step(hi - lo)
+        ticks = [float(d) for d in range(int(lo), int(hi) + 1)]
+        tl = [_decade_label(int(d)) if (int(d) - int(lo)) % k == 0 else "" for d in ticks]
+    else:
+        ticks = _nice_ticks(lo, hi, 4 if len(prots) > 1 else 5)
+        tl = [fmt(t, metric) for t in ticks]
+    rec.log(f"{root}/names", rr.Points2D(
+        [(-0.06 - 0.5 * LEGEND_CHAR_W * len(x), (i + 0.5) * _MC_ROW)
+         for i, x in enumerate(labels)],
+        labels=labels, colors=[_color(colors, x)[:3] for x in labels],
+        radii=rr.Radius.ui_points(0.1), show_labels=True), static=True)
+    total_w = len(prots) * box_w + gap * (len(prots) - 1)
+    rec.log(f"{root}/title", rr.Points2D(
+        [(0.5 * (total_w - names_w), box_h + 0.17)],
+        labels=[f"{metric}{' (log scale)' if log else ''}: a dot per replicate, bar 5-95 %, "
+                "tick median"], colors=[(128, 128, 128)], radii=rr.Radius.ui_points(0.1),
+        show_labels=True), static=True)
+    for j, pr in enumerate(prots):
+        x0 = j * (box_w + gap)
+        base = f"{root}/{rr.escape_entity_path_part(pr)}"
+        tf = rr.Transform3D(translation=[x0 - lo * sx, 0.0, 0.0], scale=[sx, 1.0, 1.0])
+        rec.log(f"{base}/axes", tf, static=True)
+        rec.log(f"{base}/axes/grid", rr.LineStrips2D(
+            [[(t, 0.0), (t, box_h)] for t in ticks]
+            + [[(lo, 0.0), (hi, 0.0)], [(lo, box_h), (hi, box_h)]],
+            colors=[_GRID], radii=rr.Radius.ui_points(0.5), draw_order=0.0), static=True)
+        pos = [(t, box_h + 0.06) for t, x in zip(ticks, tl) if x]
+        txt = [x for x in tl if x]
+        if len(prots) > 1:
+            pos.append(((lo + hi) / 2.0, -0.07))
+            txt.append(pr)
+        rec.log(f"{base}/axes/labels", rr.Points2D(
+            pos, labels=txt, radii=rr.Radius.ui_points(0.1), colors=[(128, 128, 128)],
+            show_labels=True, draw_order=1.0), static=True)
+    for (pr, lab, v), f, o in zip(cells, fin, off):
+        i = labels.index(lab)
+        j = prots.index(pr)
+        c = _color(colors, lab)[:3]
+        y = (i + 0.5) * _MC_ROW
+        path = f"{root}/{rr.escape_entity_path_part(pr)}/{rr.escape_entity_path_part(lab)}"
+        rec.log(path, rr.Transform3D(translation=[j * (box_w + gap) - lo * sx, 0.0, 0.0],
+                                     scale=[sx, 1.0, 1.0]), static=True)
+        if f.size == 0:
+            continue
+        x = np.log10(f) if log else f
+        if o:
+            med = float(np.median(f))
+            left = (math.log10(med) if log and med > 0 else med) < lo
+            note = f"off scale, median {fmt(med, metric)}"
+            rec.log(f"{path}/off_scale", rr.Points2D(
+                [(lo + (0.5 * LEGEND_CHAR_W * len(note)) / sx if left
+                  else hi - (0.5 * LEGEND_CHAR_W * len(note)) / sx, y)],
+                labels=[note], colors=[c], radii=rr.Radius.ui_points(0.1),
+                show_labels=True, draw_order=20.0), static=True)
+            continue
+        rec.log(path, rr.Points2D(np.column_stack([x, np.full(x.size, y)]), colors=[c],
+                                  radii=rr.Radius.ui_points(3.0), draw_order=10.0 + i),
+                static=True)
+        q5, q50, q95 = np.percentile(x, [5, 50, 95])
+        rec.log(f"{path}/range", rr.LineStrips2D(
+            [[(q5, y), (q95, y)], [(q50, y - 0.4 * _MC_ROW), (q50, y + 0.4 * _MC_ROW)]],
+            colors=[c], radii=[rr.Radius.ui_points(1.0), rr.Radius.ui_points(2.0)],
+            draw_order=9.0 + i), static=True)
+    w.plot_right[root] = box_h + 0.25                    # the plot's height, scene units
+    w.plot_left[root] = -names_w
+    w.mc_width[root] = total_w
+
+
+def _off_scale(fin: list) -> list[bool]:
+    """Which labels of a Monte Carlo plot are drawn off scale (named with their median, no
+    dots), so that the axis spans the labels that are close and their differences show: with
+    at least 4 labels, those whose median lies beyond Tukey's far fences (3 interquartile
+    ranges outside the quartiles) of the labels' medians and farther from the other labels'
+    values than those values span (drawing it would at least halve the scale of the rest); on
+    log10 of the values when all are positive."""
+    med = np.array([np.median(f) if f.size else np.nan for f in fin])
+    ok = np.isfinite(med)
+    if ok.sum() < 4:
+        return [False] * len(fin)
+    pos = bool(all(np.all(f > 0) for f in fin if f.size))
+    tr = (lambda a: np.log10(a)) if pos else (lambda a: a)
+    m = tr(np.where(ok, med, 1.0))
+    q1, q3 = np.percentile(m[ok], [25, 75])
+    iqr = q3 - q1
+    if not iqr > 0:
+        return [False] * len(fin)
+    cand = [bool(k and (x < q1 - 3.0 * iqr or x > q3 + 3.0 * iqr)) for k, x in zip(ok, m)]
+    rest = [tr(f) for f, c in zip(fin, cand) if f.size and not c]
+    if not rest:
+        return [False] * len(fin)
+    lo, hi = min(float(r.min()) for r in rest), max(float(r.max()) for r in rest)
+    return [c and max(lo - x, x - hi) > (hi - lo) for c, x in zip(cand, m)]
+
+
+def _log_replicates(w: _Writer, reps: dict, colors, plan=None) -> None:
+    rr, rec = w.rr, w.rec
+    # one plot per headline metric, a column per protocol that has it
+    by_metric: dict[str, dict] = {}
+    for prot, metrics in reps.items():
+        for metric in headline_metrics(plan, metrics):
+            by_metric.setdefault(metric, {})[prot] = metrics[metric]
+    for metric, cols in by_metric.items():
+        root = _p("report", "replicates", metric)
+        _log_mc_plot(w, root, metric, cols, colors)
+        w.mc_plots[metric] = root
+        for prot in cols:
+            w.mc_plotted.add((prot, metric))
     rows = []
     for prot, metrics in reps.items():
         for metric, labels in metrics.items():
@@ -600,18 +855,34 @@ def _log_replicates(w: _Writer, reps: dict, colors) -> None:
                 f = v[np.isfinite(v)]
                 if f.size:
                     q = np.percentile(f, [50, 5, 95])
-                    rows.append([prot, metric, lab, f"{f.size}/{v.size}", fmt(float(q[0]), metric),
-                                 f"{fmt(float(q[1]), metric)} to {fmt(float(q[2]), metric)}"])
+                    row = [fmt(float(q[0]), metric),
+                           f"{fmt(float(q[1]), metric)} to {fmt(float(q[2]), metric)}",
+                           f"{f.size}/{v.size}", lab]
                 else:
-                    rows.append([prot, metric, lab, f"0/{v.size}", "–", "–"])
+                    row = ["–", "–", f"0/{v.size}", lab]
+                rows.append((prot, metric, row))
+    # one table per protocol and metric, the headline metrics (those plotted) first; the
+    # numbers first, the label last: long labels do not push the numbers off the panel
+    head = ["median", "5-95 %", "finite", "label"]
     text = ["# Monte Carlo: the distribution over replicates", "",
-            "Every other tab shows one representative replicate in full. Here: each metric over "
-            f"the replicates (the points are on the `{REPLICATE_TIMELINE}` timeline: pick it in "
-            "the time panel to see them).", "",
-            md_table(["protocol", "metric", "label", "finite / replicates", "median",
-                      "5-95 % range"], rows), ""]
+            "Every other tab shows one representative replicate in full. Here: the headline "
+            "metrics (those the claims are about) over the replicates, a plot each, and every "
+            "metric's median and 5-95 % range below (each replicate's value is also on the "
+            f"`{REPLICATE_TIMELINE}` timeline, entities `/replicates/...`).", ""]
+    order = [(prot, m) for prot, metrics in reps.items() for m in headline_metrics(plan, metrics)]
+    order += [(prot, m) for prot, metrics in reps.items() for m in metrics
+              if (prot, m) not in order]
+    for prot, metric in order:
+        star = " (plotted)" if (prot, metric) in w.mc_plotted else ""
+        text += [f"### `{prot}`: `{metric}`{star}", "",
+                 md_table(head, [r for p_, m_, r in rows if (p_, m_) == (prot, metric)]), ""]
     rec.log("/replicates/summary", rr.TextDocument("\n".join(text), media_type="text/markdown"),
             static=True)
+
+
+def _n_reps(reps: dict) -> int:
+    return max((len(v) for m in reps.values() for labs in m.values() for v in labs.values()),
+               default=0)
 
 
 def _metrics_text(res, decim: dict, piece_decim: list[int]) -> str:
@@ -811,28 +1082,44 @@ def _blueprint(res, w: _Writer, reps: dict | None = None, active_tab: str = "Ove
                           corner="LeftTop"))
     tabs.append(rrb.Grid(*terms, grid_columns=min(len(terms), 3), name="FOG error terms"))
     for kind, title in (("allan", "Allan deviation"), ("psd", "PSD")):
-        views = [rrb.Spatial2DView(
+        views = [(key, rrb.Spatial2DView(
             name=f"{title}: {key} / {it.run}" + (" (in-sample)" if _in_sample(res).get(
                 it.protocol) else "") + f"; {w.plots[_p('report', kind, key, it.run)]}",
             origin=_p("report", kind, key, it.run),
-            visual_bounds=rrb.VisualBounds2D(x_range=(-0.3, _PLOT_W + 0.8),
-                                             y_range=(-0.15, _PLOT_H + 0.3)))
+            visual_bounds=rrb.VisualBounds2D(
+                x_range=(-0.35, max(_PLOT_W + 0.8,
+                                    w.plot_right.get(_p("report", kind, key, it.run), 0.0))),
+                y_range=(-0.22, _PLOT_H + 0.32))))
             for key, it in zip(keys, res.scored)
             if _p("report", kind, key, it.run) in w.plots]
-        if views:
-            tabs.append(rrb.Grid(*views, grid_columns=min(len(views), 2), name=title))
+        # at most MAX_LOGLOG_VIEWS plots a tab (paper002's 12 plots of about 110 px could not
+        # hold their legends): more go in a tab per protocol
+        prots = list(dict.fromkeys(k for k, _ in views))
+        if len(views) > MAX_LOGLOG_VIEWS and len(prots) > 1:
+            tabs.append(rrb.Tabs(*[rrb.Grid(*[v for k, v in views if k == pk],
+                                            grid_columns=min(sum(k == pk for k, _ in views), 2),
+                                            name=pk) for pk in prots], name=title))
+        elif views:
+            tabs.append(rrb.Grid(*[v for _, v in views], grid_columns=min(len(views), 2),
+                                 name=title))
     if reps:
+        # one static dot plot per headline metric of each protocol: it shows whatever timeline
+        # is selected (a time series on the replicate timeline blanked with sim_time selected)
         views = []
-        for prot, metrics in reps.items():
-            for metric in metrics:
-                views.append(rrb.TimeSeriesView(
-                    name=f"{metric} over replicates, {prot}",
-                    origin=_p("replicates", prot, metric),
-                    plot_legend=rrb.PlotLegend(visible=True, corner="RightTop")))
+        for metric, root in w.mc_plots.items():
+            h = w.plot_right[root]
+            prots = [p_ for p_, m_ in sorted(w.mc_plotted) if m_ == metric]
+            views.append(rrb.Spatial2DView(
+                name=f"{metric} over {_n_reps(reps)} replicates"
+                     + (f", {prots[0]}" if len(prots) == 1 else ", a column per protocol"),
+                origin=root,
+                visual_bounds=rrb.VisualBounds2D(
+                    x_range=(min(w.plot_left[root], -0.6), w.mc_width[root] + 0.1),
+                    y_range=(-0.14, h + 0.02))))
         tabs.append(rrb.Horizontal(
             rrb.TextDocumentView(name="Distribution over replicates",
                                  origin="/replicates/summary"),
-            rrb.Grid(*views, grid_columns=min(len(views), 2)),
+            rrb.Vertical(*views) if len(views) > 1 else views[0],
             column_shares=[2, 3], name="Monte Carlo"))
     tabs.append(rrb.Horizontal(
         rrb.TextDocumentView(name="Metrics", origin="/report/metrics"),

@@ -14,6 +14,12 @@ download is not used). Example (the README's images)::
         --shot paper000_wnn:Overview:errors_paper000.png \\
         --shot "paper002_acobp:Allan deviation:allan_paper002.png"
 
+A run directory of ``fogbench run`` in place of a scenario shows that run's own recording, with
+its replicates (the Monte Carlo tab)::
+
+    .venv/bin/python scripts/screenshots.py --out /tmp/shots \\
+        --shot "reports/paper000_wnn:Monte Carlo:mc_paper000.png"
+
 The functions :func:`serve`, :func:`open_viewer`, :func:`wait_until_drawn`,
 :func:`show_tab` and :func:`viewer_errors` are used by ``tests/test_viewer_browser.py`` too.
 """
@@ -167,6 +173,17 @@ def show_tab(proxy: str, res, tab: str, replicates=None) -> None:
         rec.disconnect()
 
 
+def run_replicates(run_dir: Path):
+    """The replicates a run directory's recording holds (``metrics.json``, key ``montecarlo``),
+    as :func:`fogbench.recording.write_recording` takes them, or None without Monte Carlo."""
+    import json
+
+    from fogbench.report import recording_replicates
+
+    mc = json.loads((Path(run_dir) / "metrics.json").read_text()).get("montecarlo")
+    return recording_replicates(mc) if mc else None
+
+
 def _external(url: str) -> bool:
     host = urllib.parse.urlsplit(url).hostname or ""
     return host not in ("127.0.0.1", "localhost", "::1")
@@ -212,7 +229,8 @@ def _save_small(png: bytes, path: Path) -> None:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--shot", action="append", required=True,
-                    help="SCENARIO:TAB:FILE.png (a scenario name in scenarios/ or a path)")
+                    help="SCENARIO:TAB:FILE.png (a scenario name in scenarios/, a path, or a "
+                         "run directory of `fogbench run`: its own recording, with replicates)")
     ap.add_argument("--out", default=str(ROOT / "docs" / "img"))
     ap.add_argument("--chromium", default=None, help=f"default {DEFAULT_CHROMIUM}")
     ap.add_argument("--width", type=int, default=1600)
@@ -236,19 +254,28 @@ def main(argv=None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     failed = False
     for scen, items in shots.items():
-        path = Path(scen) if scen.endswith(".toml") else ROOT / "scenarios" / f"{scen}.toml"
+        run_dir = Path(scen) if (Path(scen) / "recording.rrd").is_file() else None
+        reps = None
+        if run_dir is not None:       # a run directory: its own recording and replicates
+            path = run_dir / "scenario.toml"
+            reps = run_replicates(run_dir)
+        else:
+            path = Path(scen) if scen.endswith(".toml") else ROOT / "scenarios" / f"{scen}.toml"
         with contextlib.redirect_stderr(io.StringIO()):
             res = run_scenario(path)
         with tempfile.TemporaryDirectory() as tmp:
             rrd = Path(tmp) / "recording.rrd"
-            write_recording(res, rrd)
+            if run_dir is not None:
+                shutil.copyfile(run_dir / "recording.rrd", rrd)
+            else:
+                write_recording(res, rrd)
             with serve(rrd, Path(tmp) / "rerun.log") as (url, proxy), \
                     open_viewer(url, chromium, args.width, args.height) as (page, msgs):
                 waited = wait_until_drawn(page)
                 print(f"{scen}: loaded and drawn after {waited:.0f} s "
                       f"({rrd.stat().st_size / 1e6:.1f} MB)")
                 for tab, fname in items:
-                    show_tab(proxy, res, tab)
+                    show_tab(proxy, res, tab, replicates=reps)
                     wait_until_drawn(page, min_s=3.0)
                     _save_small(page.screenshot(), out / fname)
                     print(f"  {tab}: {out / fname}")

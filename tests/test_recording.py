@@ -300,7 +300,12 @@ def test_compensated_and_error_series_of_every_scored_piece(tiny):
             assert e.size == 400
             f, pxx = scipy.signal.welch(e - e.mean(), fs=p.fs, nperseg=256)
             np.testing.assert_allclose(10 ** xy[:, 0], f[1:], rtol=1e-5)
-            np.testing.assert_allclose(10 ** xy[:, 1], pxx[1:], rtol=1e-4)
+            # values below the plot's floor (its lowest grid line) are drawn on the floor
+            floor = min(pt[1] for strip in rrd.static_strips(
+                f"/report/psd/{it.protocol}/{it.run}/axes/grid") for pt in strip)
+            assert floor >= math.log10(pxx[1:].max()) - R.LOGLOG_MAX_DECADES - 1
+            np.testing.assert_allclose(10 ** xy[:, 1], np.maximum(pxx[1:], 10 ** floor),
+                                       rtol=1e-4)
 
 
 def test_table_poses_follow_the_truth_quaternions(tiny):
@@ -713,6 +718,117 @@ def test_psd_interval_covers_the_true_psd_of_white_noise_as_often_as_it_says():
     assert abs(hits / total - R.CONFIDENCE) < 0.03
 
 
+def test_a_log_log_plot_over_19_decades_labels_a_few_and_keeps_8(tmp_path):
+    """paper000's PSD (a filtered output falling to 1e-13 (deg/h)^2/Hz under a raw 1e5) stacked
+    19 decade labels on its y axis: at most 6 labels an axis, 8 decades in y, the curve below
+    drawn on the floor, and the axis titles clear of the tick labels."""
+    import rerun as rr
+
+    rec = rr.RecordingStream(application_id="t", recording_id="t", send_properties=False)
+    mem = rec.memory_recording()
+    w = R._Writer(rec)
+    f = np.logspace(-1, 2, 50)
+    curves = [("raw", "raw", (128, 128, 128), f, 1e5 / f, None, None),
+              ("m", "m", (214, 39, 40), f, 1e-13 * np.ones_like(f), None, None)]
+    R._loglog(w, "/p", curves, "frequency, Hz", "PSD, (deg/h)^2/Hz", "")
+    rec.flush()
+    (tmp_path / "p.rrd").write_bytes(mem.drain_as_bytes())
+    rec.disconnect()
+    rrd = Rrd(tmp_path / "p.rrd")
+    grid = rrd.static_strips("/p/axes/grid")
+    y_lines = sorted({st[0][1] for st in grid if st[0][1] == st[1][1]})
+    x_lines = sorted({st[0][0] for st in grid if st[0][0] == st[1][0]})
+    # raw tops out at 1e6 at 0.1 Hz: 8 decades down to the floor 1e-2, not 1e-13
+    assert y_lines == list(range(-2, 7)) and x_lines == list(range(-1, 3))
+    m = rrd.static_strips("/p/m")[0]
+    assert np.all(m[:, 1] == -2)                                     # on the floor
+    # in (log10 x, log10 y): x tick labels below the box, y tick labels left of it
+    pos = _static_points(rrd, "/p/axes/labels")
+    labels = _static_labels(rrd, "/p/axes/labels")
+    xs = {lab: xy for lab, xy in zip(labels, pos) if xy[1] < -2 and "," not in lab}
+    ys = {lab: xy for lab, xy in zip(labels, pos) if xy[0] < -1 and "," not in lab}
+    assert list(xs) == ["0.1", "1", "10", "100"]
+    assert 2 <= len(ys) <= 6 and "1e6" in ys, ys            # not 9 (nor paper000's 19)
+    # the titles clear of the tick labels: the x title below them, the y title above the box
+    (xt,) = [xy for lab, xy in zip(labels, pos) if lab == "frequency, Hz"]
+    (yt,) = [xy for lab, xy in zip(labels, pos) if lab.startswith("PSD")]
+    dy_tick = -2 - min(xy[1] for xy in xs.values())               # tick labels' offset
+    assert xt[1] <= -2 - 2 * dy_tick
+    assert yt[1] >= 6 + dy_tick
+
+
+# --------------------------------------------------------------------------------------------
+# legends that fit: a sweep is one entry, the methods of an in-sample protocol one entry
+SWEPT = TINY.replace('name = "rec_tiny"', 'name = "rec_tiny_swept"') + """
+[[methods]]
+name = "wavelet_soft"
+label = "wavelet_band"
+sweep = { level = [3, 4], threshold = ["universal", "sure"] }
+
+[[protocols]]
+name = "refit"
+in_sample = true
+fit = [{ run = "test_run" }]
+score = ["test_run"]
+"""
+
+
+def _static_names(rrd, path) -> list[str]:
+    for c in rrd.chunks[path]:
+        rb = c.to_record_batch()
+        if c.is_static and "SeriesLines:names" in rb.schema.names:
+            return rb.column("SeriesLines:names")[0].as_py()
+    raise AssertionError(f"{path}: no static SeriesLines names")
+
+
+def test_legends_list_a_sweep_once_and_the_in_sample_methods_once(tmp_path):
+    """The viewer's legend cuts off what does not fit a plot (paper000 opened without its WNN
+    listed, paper002 without raw and oracle): the 4 settings of a sweep are one legend entry,
+    and the methods of an in-sample protocol one entry, in the error view of a run scored by a
+    held-out and an in-sample protocol; the Allan legend lists the sweep once."""
+    (tmp_path / "swept.toml").write_text(SWEPT)
+    res = run_scenario(tmp_path / "swept.toml")
+    R.write_recording(res, tmp_path / "recording.rrd")
+    rrd = Rrd(tmp_path / "recording.rrd")
+    labels = ["raw", "oracle", "wavelet_soft", "kalman"] + [
+        f"wavelet_band.level-{lv}.threshold-{th}" for lv in (3, 4) for th in ("universal", "sure")]
+    names = set()
+    for prot in ("held_out", "refit"):
+        for lab in labels:
+            path = f"/runs/test_run/fog/error/{prot}/{lab}"
+            if path in rrd.paths:
+                names |= set(_static_names(rrd, path))
+    assert names == {"raw", "oracle", "wavelet_soft", "kalman", "wavelet_band (4 settings)",
+                     "refit (in-sample): every method, lighter"}
+    legend = _static_labels(rrd, "/report/allan/held_out/test_run/legend")
+    assert legend == ["raw", "oracle", "wavelet_soft", "kalman", "wavelet_band (4 settings)"]
+
+
+def test_allan_and_psd_plots_beyond_a_tab_s_share_go_in_a_tab_per_protocol(tmp_path,
+                                                                          monkeypatch):
+    """paper002's 12 PSD plots (4 protocols x 3 runs) were 110 px tall, their legends piled up:
+    past MAX_LOGLOG_VIEWS plots, a tab per protocol holding its own."""
+    (tmp_path / "swept.toml").write_text(SWEPT)
+    res = run_scenario(tmp_path / "swept.toml")
+    monkeypatch.setattr(R, "MAX_LOGLOG_VIEWS", 1)                   # 2 pieces: past it
+    R.write_recording(res, tmp_path / "recording.rrd")
+    props = _blueprint_props(Rrd(tmp_path / "recording.rrd"))
+    for tab in ("Allan deviation", "PSD"):
+        (root,) = [c for c in props.values()
+                   if c.get("ContainerBlueprint:display_name") == [tab]]
+        kids = [props["/" + k] for k in root["ContainerBlueprint:contents"]]
+        assert [k["ContainerBlueprint:display_name"] for k in kids] == [["held_out"], ["refit"]]
+        for k, prot in zip(kids, ("held_out", "refit")):
+            (v,) = [props["/" + x] for x in k["ContainerBlueprint:contents"]]
+            assert v["ViewBlueprint:space_origin"] == [
+                f"/report/{'allan' if tab.startswith('Allan') else 'psd'}/{prot}/test_run"]
+    monkeypatch.setattr(R, "MAX_LOGLOG_VIEWS", 6)                   # 2 pieces: one grid
+    R.write_recording(res, tmp_path / "recording2.rrd")
+    props = _blueprint_props(Rrd(tmp_path / "recording2.rrd"))
+    (root,) = [c for c in props.values() if c.get("ContainerBlueprint:display_name") == ["PSD"]]
+    assert all(k.startswith("view/") for k in root["ContainerBlueprint:contents"])
+
+
 # --------------------------------------------------------------------------------------------
 # Monte Carlo replicates
 REPS = {"held_out": {"rmse_dph": {"raw": [491.0, 489.5, 490.2, 492.8, 488.1],
@@ -733,14 +849,157 @@ def test_replicates_are_logged_on_their_own_timeline_and_summarised(tiny, tmp_pa
                 np.testing.assert_array_equal(idx, [i for i, _ in want])
                 np.testing.assert_allclose(got, [v for _, v in want], rtol=1e-12)
     md = rrd.static_text("/replicates/summary")
-    assert "| held_out | rmse_dph | kalman | 3/5 | 12.5 |" in md    # median of 12.5, 11, 13.25
-    assert "| held_out | rmse_dph | raw | 5/5 | 490.2 |" in md
+    # one table per protocol and metric, numbers first (a long label cannot push them off the
+    # panel): median, 5-95 % range (numpy's linear percentiles), finite / replicates, label
+    assert "### `held_out`: `rmse_dph`" in md and "### `held_out`: `std_dps`" in md
+    rows = {ln.split("|")[4].strip(): ln for ln in md.splitlines()
+            if ln.startswith("| ") and ln.count("|") == 5}
+    assert rows["kalman"].startswith("| 12.5 | 11.15 to 13.18 | 3/5 |")   # of 12.5, 11, 13.25
+    assert rows["raw"].startswith("| 490.2 | 488.4 to 492.4 | 5/5 |")
+    assert rows["wavelet_soft"].startswith("| 0.0205 |")
     # the representative replicate is still there in full
     it = res.scored[0]
     t, _ = rrd.scalars(f"/runs/{it.run}/fog/error/{it.protocol}/kalman")
     assert t.size == it.piece.t.size
     assert "Monte Carlo" in {x for c in _blueprint_props(rrd).values()
                              for x in c.get("ContainerBlueprint:display_name") or []}
+
+
+def _tab_views(rrd, tab: str) -> list[dict]:
+    """The views inside the blueprint's container named ``tab`` (read from the .rrd's
+    blueprint store): their ViewBlueprint components."""
+    props = _blueprint_props(rrd)
+    (root,) = [p for p, c in props.items()
+               if c.get("ContainerBlueprint:display_name") == [tab]]
+    out, todo = [], [root]
+    while todo:
+        c = props[todo.pop(0)]
+        for child in c.get("ContainerBlueprint:contents") or []:
+            child = "/" + child
+            if child.startswith("/view/"):
+                out.append(props[child])
+            else:
+                todo.append(child)
+    return out
+
+
+def _static_points(rrd, path) -> np.ndarray:
+    for c in rrd.chunks[path]:
+        rb = c.to_record_batch()
+        if c.is_static and "Points2D:positions" in rb.schema.names:
+            return np.array(rb.column("Points2D:positions")[0].as_py(), dtype=float)
+    raise AssertionError(f"{path}: no static Points2D")
+
+
+def _static_labels(rrd, path) -> list[str]:
+    for c in rrd.chunks[path]:
+        rb = c.to_record_batch()
+        if c.is_static and "Points2D:labels" in rb.schema.names:
+            return rb.column("Points2D:labels")[0].as_py()
+    raise AssertionError(f"{path}: no static Points2D labels")
+
+
+REPS2 = {"held_out": {"rmse_dph": {"raw": [491.0, 489.5, 490.2], "kalman": [12.5, 11.0, 13.25]},
+                      "std_dps": {"raw": [0.13, 0.12, 0.14], "kalman": [0.021, None, 0.025],
+                                  "wavelet_soft": [0.05, 0.051, 0.049]},
+                      "improvement_rmse_pct": {"kalman": [97.4, 97.7, 97.3]}}}
+
+
+@pytest.mark.parametrize("claims,want", [
+    ((), ["rmse_dph"]),                       # no claim: the report's key metric
+    (("std_dps", "rmse_dph", "std_dps"), ["std_dps", "rmse_dph"]),   # the claims' metrics
+])
+def test_the_monte_carlo_tab_has_one_plot_per_headline_metric_with_every_replicate(
+        tiny, tmp_path, claims, want):
+    """One view per metric a claim is about (else the report's key metric), each a static
+    2-D plot (it shows whatever timeline is selected: the tab does not open empty) whose dots
+    are the replicates' values of every label, named in the plot."""
+    import dataclasses
+
+    from fogbench.scenario import Claim
+
+    res, _, _ = tiny
+    res = dataclasses.replace(res, plan=dataclasses.replace(res.plan, claims=tuple(
+        Claim(text="t", source="s", metric=m, better="kalman", than="raw", min_pct=None,
+              max_pct=None) for m in claims)))
+    R.write_recording(res, tmp_path / "recording.rrd", replicates=REPS2)
+    rrd = Rrd(tmp_path / "recording.rrd")
+    views = _tab_views(rrd, "Monte Carlo")
+    docs = [v for v in views if v["ViewBlueprint:class_identifier"] == ["TextDocument"]]
+    plots = [v for v in views if v["ViewBlueprint:class_identifier"] != ["TextDocument"]]
+    assert [d["ViewBlueprint:space_origin"] for d in docs] == [["/replicates/summary"]]
+    assert [v["ViewBlueprint:class_identifier"] for v in plots] == [["2D"]] * len(want)
+    origins = [v["ViewBlueprint:space_origin"][0] for v in plots]
+    assert origins == [f"/report/replicates/{m}" for m in want]
+    for origin, metric in zip(origins, want):
+        labels = REPS2["held_out"][metric]
+        # the row names, top to bottom
+        names = _static_labels(rrd, f"{origin}/names")
+        assert names == list(labels)
+        for lab, vals in labels.items():
+            assert all(c.is_static for c in rrd.chunks[f"{origin}/held_out/{lab}"])
+            xy = _static_points(rrd, f"{origin}/held_out/{lab}")
+            fin = np.array([v for v in vals if v is not None])
+            # rmse spans 11..491 (a factor 45): log axis; std_dps 0.021..0.14: linear
+            x = 10 ** xy[:, 0] if metric == "rmse_dph" else xy[:, 0]
+            np.testing.assert_allclose(np.sort(x), np.sort(fin), rtol=1e-6)
+            assert np.ptp(xy[:, 1]) == 0          # one row per label
+        rows = [_static_points(rrd, f"{origin}/held_out/{lab}")[0, 1] for lab in labels]
+        assert np.all(np.diff(rows) > 0), "rows not in the labels' order, top to bottom"
+
+
+def test_one_monte_carlo_plot_per_metric_holds_a_column_per_protocol(tiny, tmp_path):
+    """paper002 (4 protocols, one claimed metric) had 12 plots of about 110 px: now one, a
+    column per protocol on the same x scale, side by side."""
+    res, _, _ = tiny
+    reps = {"held_out": {"rmse_dph": {"raw": [491.0, 489.5], "kalman": [12.5, 11.0]}},
+            "refit": {"rmse_dph": {"raw": [490.0, 492.5], "kalman": [10.5, 9.0]}}}
+    R.write_recording(res, tmp_path / "recording.rrd", replicates=reps)
+    rrd = Rrd(tmp_path / "recording.rrd")
+    plots = [v for v in _tab_views(rrd, "Monte Carlo")
+             if v["ViewBlueprint:class_identifier"] == ["2D"]]
+    assert [v["ViewBlueprint:space_origin"] for v in plots] == [["/report/replicates/rmse_dph"]]
+    shift = {}
+    for prot, metrics in reps.items():
+        for lab, vals in metrics["rmse_dph"].items():
+            xy = _static_points(rrd, f"/report/replicates/rmse_dph/{prot}/{lab}")
+            np.testing.assert_allclose(np.sort(10 ** xy[:, 0]), np.sort(vals), rtol=1e-6)
+        tf = _static_component(rrd, f"/report/replicates/rmse_dph/{prot}/kalman",
+                               "Transform3D:translation")
+        sc = _static_component(rrd, f"/report/replicates/rmse_dph/{prot}/kalman",
+                               "Transform3D:scale")
+        shift[prot] = (tf[0], sc[0])
+    # the same x scale, the second column right of the first
+    assert shift["held_out"][1] == shift["refit"][1]
+    assert shift["refit"][0] > shift["held_out"][0]
+
+
+def test_a_label_far_from_the_others_is_named_off_scale_and_the_axis_spans_the_rest(
+        tiny, tmp_path):
+    """paper000's oracle_filter (std 0 against 0.11..0.13 for the others) would squeeze the
+    methods the claims compare into a corner: it is named with its median, without dots, and
+    the axis spans the other labels' values."""
+    res, _, _ = tiny
+    close = {f"m{i}": [0.120 + 0.002 * i, 0.125 + 0.002 * i, 0.130 + 0.002 * i]
+             for i in range(5)}
+    reps = {"held_out": {"std_dps": {"raw": [0.13, 0.131, 0.132], "zero": [0.0, 0.0, 0.0],
+                                     **close}}}
+    R.write_recording(res, tmp_path / "recording.rrd", replicates=reps)
+    rrd = Rrd(tmp_path / "recording.rrd")
+    origin = "/report/replicates/std_dps"
+    names = _static_labels(rrd, f"{origin}/names")
+    assert names == ["raw", "zero", *close]
+    with pytest.raises((AssertionError, KeyError)):
+        _static_points(rrd, f"{origin}/held_out/zero")
+    assert _static_labels(rrd, f"{origin}/held_out/zero/off_scale") == [
+        "off scale, median 0"]
+    # the vertical grid lines (the x ticks, in data units) lie within the others' values
+    ticks = [st[0][0] for st in rrd.static_strips(f"{origin}/held_out/axes/grid")
+             if st[0][0] == st[1][0]]
+    assert min(ticks) >= 0.115 and max(ticks) <= 0.142
+    xs = np.concatenate([_static_points(rrd, f"{origin}/held_out/{lab}")[:, 0]
+                         for lab in close])
+    np.testing.assert_allclose(np.sort(xs), np.sort(np.concatenate(list(close.values()))))
 
 
 @pytest.mark.parametrize("bad,where", [

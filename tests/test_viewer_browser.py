@@ -6,6 +6,12 @@ viewer errors in the browser console (requests the viewer makes to the internet 
 without network, and are not counted: see ``scripts/screenshots.py``). Marked ``browser`` and
 skipped where Chromium or playwright is missing; it takes about a minute.
 
+It also opens the recording of every bundled scenario that is quick to make (at most
+``QUICK_SAMPLES`` samples over its runs) and checks, in the pixels of the first view the viewer
+shows (tab Overview, as the recording opens), that the error view is not empty (coloured
+lines, not the background alone) and that the temperature view opens on the whole run (the
+traces of the longest run span the plot's width).
+
 Run it with ``.venv/bin/python -m pytest -m browser tests/test_viewer_browser.py`` (needs
 ``apt-get install chromium`` and ``pip install playwright``).
 """
@@ -67,3 +73,79 @@ def test_the_recording_loads_in_the_web_viewer_without_errors_on_every_tab(shots
         errors = shots.viewer_errors(msgs)
     assert before != after, "switching tabs changed nothing on the page"
     assert not errors, "viewer errors in the browser console:\n" + "\n".join(errors)
+
+
+# ---------------------------------------------------------------------------------------------
+# the first view of every bundled scenario that is quick to make
+QUICK_SAMPLES = 50_000          # samples over a scenario's runs (sum of duration * fs)
+WIDTH, HEIGHT = 1600, 1000
+# where the Overview's plots are on a 1600 x 1000 page (the blueprint panel left, the
+# selection panel right and the time panel below kept open; the Overview's right column, 3/5
+# of the viewport, holds the error view above the temperatures): fractions of the page, the
+# plot areas without their titles and tick labels
+ERROR_PLOT = (0.45, 0.12, 0.78, 0.55)           # x0, y0, x1, y1
+TEMPERATURE_PLOT = (0.43, 0.675, 0.80, 0.815)
+SATURATED = 40                  # max - min of a pixel's RGB: a coloured line, not grey or white
+
+
+def _quick_scenarios() -> list[Path]:
+    from fogbench.scenario import RUNNER_SECTIONS, load_scenario
+
+    out = []
+    for f in sorted((ROOT / "scenarios").glob("*.toml")):
+        sc = load_scenario(f, extra_sections=RUNNER_SECTIONS)
+        if sum(r.duration for r in sc.runs) * sc.fs <= QUICK_SAMPLES:
+            out.append(f)
+    return out
+
+
+def _coloured(png: bytes, box) -> "np.ndarray":
+    """Mask of the coloured (saturated) pixels of a screenshot inside ``box`` (fractions)."""
+    import io
+
+    import numpy as np
+    from PIL import Image
+
+    img = np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(int)
+    h, w, _ = img.shape
+    x0, y0, x1, y1 = box
+    crop = img[int(y0 * h):int(y1 * h), int(x0 * w):int(x1 * w)]
+    return crop.max(axis=2) - crop.min(axis=2) > SATURATED
+
+
+def test_quick_scenarios_are_listed():
+    names = {p.stem for p in _quick_scenarios()}
+    assert {"paper000_wnn", "dynamic_rates"} <= names, names
+    assert "paper002_acobp" not in names       # 310,000 samples and 20 ACO-BP starts
+
+
+@pytest.mark.parametrize("scenario", [p.stem for p in _quick_scenarios()])
+def test_the_first_view_of_each_quick_scenario_shows_the_whole_run_and_is_not_empty(
+        shots, tmp_path, scenario):
+    import numpy as np
+
+    from fogbench.recording import write_recording
+    from fogbench.runner import run_scenario
+
+    res = run_scenario(ROOT / "scenarios" / f"{scenario}.toml")
+    rrd = tmp_path / "recording.rrd"
+    write_recording(res, rrd)
+    with shots.serve(rrd, tmp_path / "rerun.log") as (url, _proxy), \
+            shots.open_viewer(url, shots.chromium_path(), WIDTH, HEIGHT) as (page, msgs):
+        shots.wait_until_drawn(page, min_s=5.0, timeout_s=240.0)
+        png = page.screenshot()
+        errors = shots.viewer_errors(msgs)
+    (tmp_path / "first_view.png").write_bytes(png)
+    where = f"(screenshot: {tmp_path / 'first_view.png'})"
+    assert not errors, "viewer errors in the browser console:\n" + "\n".join(errors)
+    # not empty: the methods' coloured lines in the error view
+    err = _coloured(png, ERROR_PLOT)
+    assert err.sum() >= 300, f"{scenario}: the error view is empty {where}"
+    # the whole run: the temperatures of the longest run go from the plot's left edge to its
+    # right edge (a view opened on twice the run would leave half of it blank)
+    cols = np.flatnonzero(_coloured(png, TEMPERATURE_PLOT).any(axis=0))
+    width = _coloured(png, TEMPERATURE_PLOT).shape[1]
+    assert cols.size, f"{scenario}: the temperature view is empty {where}"
+    span = (cols.max() - cols.min() + 1) / width
+    assert span >= 0.9, (f"{scenario}: the temperatures span {100 * span:.0f} % of the "
+                         f"plot's width, not the whole run {where}")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["KEY_METRICS", "fmt", "md_table", "decimation", "ci_text", "p_better_text",
+__all__ = ["KEY_METRICS", "fmt", "md_table", "decimation", "ci_text", "p_better_text", "key_metric",
            "metrics_table"]
 
 KEY_METRICS = ("std_dps", "rmse_dph", "drift_rms_dph", "bias_stability_100s_dph",
@@ -77,3 +77,16 @@ def metrics_table(by_method: dict, cell=None) -> str:
         rows.append([lab] + [cell(lab, x, m.get(x)) if cell else fmt(m.get(x), x)
                              for x in metrics] + ["ok"])
     return md_table(["method"] + metrics + ["status"], rows)
+
+
+def key_metric(mc: dict, protocol: str, plan) -> str | None:
+    """The metric a protocol's distribution figure shows: a claim's, else the first key one."""
+    have = mc["over_runs"].get(protocol, {}).get("raw", {})
+    for c in plan.claims:
+        if c.metric in have:
+            return c.metric
+    for m in ("drift_rms_dph", "bias_stability_100s_dph", "rmse_dph", "coef_rms_error_dph",
+              "arw_deg_rt_h", "std_dps"):
+        if m in have:
+            return m
+    return None

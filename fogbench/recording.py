@@ -665,14 +665,14 @@ def headline_metrics(plan, metrics) -> list[str]:
     """The metrics of one protocol's replicates that the Monte Carlo tab plots (its headline
     metrics): every metric a claim of the scenario is about, in the order of the claims, where
     the protocol has it; else the one the report's distribution figure shows
-    (:func:`fogbench.report.key_metric`); else the first. ``metrics``: ``{metric: {label:
+    (:func:`fogbench.fmt.key_metric`); else the first. ``metrics``: ``{metric: {label:
     values}}``."""
     out: list[str] = []
     for c in getattr(plan, "claims", ()):
         if c.metric in metrics and c.metric not in out:
             out.append(c.metric)
     if not out:
-        from .report import key_metric
+        from .fmt import key_metric
 
         have = {m: True for m, labs in metrics.items() if "raw" in labs}
         km = key_metric({"over_runs": {"_": {"raw": have}}}, "_", plan)

@@ -20,7 +20,7 @@ from fogcomp import metrics as M  # noqa: E402
 from fogcomp.allan import oadev_ci  # noqa: E402
 from fogcomp.units import DPH, DPS  # noqa: E402
 
-from .fmt import (KEY_METRICS, ci_text, decimation, fmt, md_table,  # noqa: E402
+from .fmt import (key_metric, KEY_METRICS, ci_text, decimation, fmt, md_table,  # noqa: E402
                   metrics_table, p_better_text)
 from .io import atomic_write_bytes, atomic_write_text, run_arrays, save_figure as _save, versions  # noqa: E402
 from . import palette as PAL  # noqa: E402
@@ -1172,19 +1172,6 @@ def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_d
 
 # ---------------------------------------------------------------------------------------------
 # Monte Carlo: the distributions over replicates
-def key_metric(mc: dict, protocol: str, plan) -> str | None:
-    """The metric a protocol's distribution figure shows: a claim's, else the first key one."""
-    have = mc["over_runs"].get(protocol, {}).get("raw", {})
-    for c in plan.claims:
-        if c.metric in have:
-            return c.metric
-    for m in ("drift_rms_dph", "bias_stability_100s_dph", "rmse_dph", "coef_rms_error_dph",
-              "arw_deg_rt_h", "std_dps"):
-        if m in have:
-            return m
-    return None
-
-
 def _fig_distributions(res: ScenarioResult, mc: dict, path: Path, panel) -> bool:
     """One panel per protocol whose key metric ``panel(prot, metric)`` has values: one column
     per method, the values as jittered points over a box of their quartiles (log scale for

@@ -47,6 +47,7 @@ duration_s = 150.0
 
 [[protocols]]
 name = "own_run"
+reference = "truth"      # one reading: the Monte Carlo statistics, not the lab, are tested here
 fit = [{ run = "*", end_s = 75.0 }]
 score = [{ run = "*", start_s = 75.0 }]
 

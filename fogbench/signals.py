@@ -6,7 +6,7 @@ installs its handlers before anything heavy is imported (a signal during the imp
 like any other). The handlers record each signal and raise ``KeyboardInterrupt`` / ``Terminated``;
 an exception raised where Python cannot propagate it (a ``__del__``, a weakref or a matplotlib
 callback) is only printed by Python as "Exception ignored ...": :func:`install` replaces that print
-for these two exceptions (the record stays), and :func:`check` raises the signal again before an
+for these two exceptions and for whatever fails in a ``__del__`` after a signal (the record stays), and :func:`check` raises the signal again before an
 output is put in place.
 """
 
@@ -39,8 +39,10 @@ def _int(signum, frame):
 
 def _unraisable(unraisable) -> None:
     """Python's report of an exception it cannot raise (in a ``__del__``, a weakref callback):
-    silent for the signals' own exceptions (recorded, raised again by :func:`check`)."""
-    if isinstance(unraisable.exc_value, (Terminated, KeyboardInterrupt)):
+    silent for the signals' own exceptions (recorded, raised again by :func:`check`), and for
+    any after a signal: an object whose ``__init__`` the signal cut short fails in its
+    ``__del__`` (pyparsing's ``Forward``: "no attribute 'expr'"), the signal's consequence."""
+    if isinstance(unraisable.exc_value, (Terminated, KeyboardInterrupt)) or _RECEIVED:
         return
     _default_unraisable(unraisable)
 

@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from .io import save_figure as _save
-from .map_report import VERDICT_COLORS
+from .map_report import verdict_color
 from .maps import side
 
 __all__ = ["fig_claim", "draw_claim_figures", "claim_figure_name", "verdict_phrase",
@@ -179,7 +179,7 @@ def fig_claim(c: dict, path: Path) -> bool:
                           bottom=0.08 if starts else 0.11)
     ax = fig.add_subplot(gs[0, 0])
     bx = fig.add_subplot(gs[0, 1])
-    vcol = VERDICT_COLORS.get(c["verdict"], "tab:blue")
+    vcol = verdict_color(c, "tab:blue")
 
     # left: the improvement, the claimed range, the oracle
     lo, hi = c.get("min_pct"), c.get("max_pct")
@@ -246,7 +246,8 @@ def fig_claim(c: dict, path: Path) -> bool:
                plt.Line2D([], [], marker="D", color="0.2", lw=3,
                           label="mean and its 95 % t-interval over replicates"),
                plt.Line2D([], [], marker="D", ls="none", color=vcol,
-                          label=f"{c['better']} (verdict colour: {c['verdict']})"),
+                          label=f"{c['better']} (verdict colour: {c['verdict']}"
+                          + (f", {side(c)} the claim)" if side(c) else ")")),
                plt.Line2D([], [], marker="D", ls="none", color=ORACLE_COLOR,
                           label=ORACLE_TEXT.get(oracle, oracle)
                           + ("" if bound else f" (not a bound: {c['better']} also filters)"))]
@@ -267,7 +268,7 @@ def _starts(c: dict) -> dict | None:
 def _draw_starts(ax, c: dict, per: dict, metric: str, mname: str, unit: str) -> None:
     """Every start of the two methods, replicate by replicate (paired: same power-on), and the
     replicate means the claim uses."""
-    colors = {c["better"]: VERDICT_COLORS.get(c["verdict"], "tab:blue"), c["than"]: "tab:blue"}
+    colors = {c["better"]: verdict_color(c, "tab:blue"), c["than"]: "tab:blue"}
     if colors[c["than"]] == colors[c["better"]]:
         colors[c["than"]] = "tab:purple"
     allv = []

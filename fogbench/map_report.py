@@ -8,11 +8,37 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["render_map", "fig_map", "VERDICT_COLORS"]
+__all__ = ["render_map", "fig_map", "VERDICT_COLORS", "EXCEEDS_COLOR", "verdict_color",
+           "LEGEND"]
 
-#: One colour per verdict (the same in every figure).
+#: One colour per verdict (the same in every figure); a disagreement on the good side of the
+#: claimed range ("exceeds the claim": the method did better than the paper said) has its own.
 VERDICT_COLORS = {"agrees": "#2a9d3f", "disagrees": "#c0392b", "inconclusive": "#e0a800",
                   "untestable": "#7f7f7f"}
+EXCEEDS_COLOR = "#3a5fcd"
+
+
+def verdict_color(v: dict, default: str = "k") -> str:
+    """The colour of a verdict ``v`` (a claim or a map point: ``verdict``, and ``side`` or
+    ``max_pct`` with ``summary``/``mean``): :data:`EXCEEDS_COLOR` for a disagreement above the
+    claimed range, else :data:`VERDICT_COLORS`."""
+    if v.get("verdict") == "disagrees":
+        side = v.get("side")
+        if side is None:
+            hi = v.get("max_pct")
+            mean = v.get("mean", (v.get("summary") or {}).get("mean"))
+            side = "exceeds" if hi is not None and mean is not None and mean > hi else None
+        if side == "exceeds":
+            return EXCEEDS_COLOR
+    return VERDICT_COLORS.get(v.get("verdict"), default)
+
+
+#: The verdict colours as a legend reads them.
+LEGEND = [("agrees", VERDICT_COLORS["agrees"]),
+          ("disagrees (falls short of the claim)", VERDICT_COLORS["disagrees"]),
+          ("disagrees (exceeds the claim)", EXCEEDS_COLOR),
+          ("inconclusive", VERDICT_COLORS["inconclusive"]),
+          ("untestable", VERDICT_COLORS["untestable"])]
 
 
 def _num(v) -> str:
@@ -53,7 +79,7 @@ def fig_map(map_doc: dict, k: int, path: Path) -> bool:
         for i, (v, p) in enumerate(zip(vals, pts)):
             if v is None or v.get("mean") is None:
                 continue
-            col = VERDICT_COLORS.get(v["verdict"], "k")
+            col = verdict_color({**v, "max_pct": v.get("max_pct", c.get("max_pct"))})
             err = [[v["mean"] - (v["ci_low"] if v["ci_low"] is not None else v["mean"])],
                    [(v["ci_high"] if v["ci_high"] is not None else v["mean"]) - v["mean"]]]
             ax.errorbar([i], [v["mean"]], yerr=err, fmt="o", color=col, ms=7 if p["base"] else 5,
@@ -74,7 +100,7 @@ def fig_map(map_doc: dict, k: int, path: Path) -> bool:
         ax.set_ylabel(f"improvement of {c['better']} over {c['than']}, % ({c['metric']})",
                       fontsize=8)
         handles = [plt.Line2D([], [], marker="o", ls="none", color=col, label=v)
-                   for v, col in VERDICT_COLORS.items()]
+                   for v, col in LEGEND]
         handles.append(plt.Line2D([], [], marker="_", ms=12, mew=2, ls="none", color="0.45",
                                   label="oracle"))
         ax.legend(handles=[*ax.get_legend_handles_labels()[0], *handles], fontsize=7,
@@ -89,7 +115,7 @@ def fig_map(map_doc: dict, k: int, path: Path) -> bool:
         for v, p in zip(vals, pts):
             i, j = p["index"]
             if v is not None:
-                img[i, j] = to_rgb(VERDICT_COLORS.get(v["verdict"], "#ffffff"))
+                img[i, j] = to_rgb(verdict_color({**v, "max_pct": c.get("max_pct")}, "#ffffff"))
                 txt = f"{_num(v['mean'])} %\n[{_num(v['ci_low'])}, {_num(v['ci_high'])}]"
                 if v.get("oracle_mean") is not None and v.get("oracle_bounds"):
                     txt += f"\noracle {_num(v['oracle_mean'])} %"
@@ -104,7 +130,7 @@ def fig_map(map_doc: dict, k: int, path: Path) -> bool:
         ax.set_xlabel(axes[1]["name"])
         ax.set_ylabel(axes[0]["name"])
         handles = [plt.Line2D([], [], marker="s", ls="none", color=col, label=v)
-                   for v, col in VERDICT_COLORS.items()]
+                   for v, col in LEGEND]
         ax.legend(handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     ax.set_title(f"{c['text']} ({c['protocol']}): {_claimed(c)}", fontsize=9)
     _save(fig, path)

@@ -10,7 +10,8 @@ no near-white):
   ``kalman_datasheet`` red, every ``wavelet_band`` setting orange. The built-in families have
   fixed hues (:data:`FAMILY_HUES`: ``kalman`` is red in every scenario); other families (plugins)
   take the free hues of :data:`EXTRA_HUES` in their order in the scenario.
-- The members of a family differ in shade (darker, lighter: :data:`SHADES`) and, in the PNGs,
+- The members of a family differ in shade (darker, lighter: :data:`SHADES`; a light hue only
+  darker, :data:`SHADES_LIGHT`) and, in the PNGs,
   in line style (:data:`DASHES`); the viewer has no dashed series, so there the shade alone
   tells them apart.
 - An in-sample protocol, drawn beside a held-out one in the viewer, is a lighter tint of the
@@ -29,8 +30,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["RAW", "ORACLE", "TRUTH", "FAMILY_HUES", "EXTRA_HUES", "SHADES", "DASHES", "Style",
-           "styles", "plan_styles", "rgb", "mpl", "in_sample", "ERROR_UNIT", "RATE_UNIT",
+__all__ = ["RAW", "ORACLE", "TRUTH", "FAMILY_HUES", "EXTRA_HUES", "SHADES", "SHADES_LIGHT",
+           "DASHES", "Style", "lightness", "styles", "plan_styles", "rgb", "mpl", "in_sample", "ERROR_UNIT", "RATE_UNIT",
            "PSD_UNIT", "HOURS_ABOVE_S", "time_unit", "MIN_SPAN", "min_span",
            "ALLAN_MIN_CLUSTERS", "allan_drawn"]
 
@@ -57,6 +58,10 @@ EXTRA_HUES = [(160, 40, 160), (110, 110, 230), (150, 120, 0), (250, 150, 140),
 #: Shade of the k-th member of a family: the fraction it is blended towards black (< 0) or
 #: white (> 0).
 SHADES = (0.0, -0.3, 0.3, -0.5, 0.45)
+#: The shades of a light hue (CIE L* above :data:`LIGHT_HUE_L`: orange, pink, olive, gold):
+#: lightened, its members fade on a white page (olive +0.3 is L* 82), so they only darken.
+SHADES_LIGHT = (0.0, -0.12, -0.25, -0.42, -0.6)
+LIGHT_HUE_L = 60.0
 #: Line style of the k-th member of a family in the PNGs (matplotlib dash patterns).
 DASHES = ("-", (0, (5, 2)), (0, (5, 2, 1, 2)), (0, (1, 1.5)))
 IN_SAMPLE_TINT = 0.3
@@ -78,6 +83,15 @@ def _shade(c, f: float) -> tuple:
     target = 0.0 if f < 0 else 255.0
     f = abs(f)
     return tuple(int(round(x + (target - x) * f)) for x in c[:3])
+
+
+def lightness(c) -> float:
+    """CIE L* (0 black .. 100 white) of an 8-bit sRGB colour (IEC 61966-2-1 linearisation,
+    CIE 15 lightness of the luminance Y)."""
+    lin = [v / 12.92 if v <= 0.04045 else ((v + 0.055) / 1.055) ** 2.4
+           for v in (x / 255.0 for x in c[:3])]
+    y = 0.2126 * lin[0] + 0.7152 * lin[1] + 0.0722 * lin[2]
+    return 116.0 * y ** (1.0 / 3.0) - 16.0 if y > (6.0 / 29.0) ** 3 else y * (29.0 / 3.0) ** 3
 
 
 def styles(methods) -> dict[str, Style]:
@@ -112,7 +126,8 @@ def styles(methods) -> dict[str, Style]:
             continue
         k = count.get(fam, 0)
         count[fam] = k + 1
-        out[lab] = Style(_shade(hue[fam], SHADES[k % len(SHADES)]), DASHES[k % len(DASHES)],
+        shades = SHADES_LIGHT if lightness(hue[fam]) > LIGHT_HUE_L else SHADES
+        out[lab] = Style(_shade(hue[fam], shades[k % len(shades)]), DASHES[k % len(DASHES)],
                          fam, k)
     return out
 

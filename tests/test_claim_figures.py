@@ -23,6 +23,7 @@ import re
 
 import numpy as np
 import pytest
+from matplotlib.colors import to_hex
 from scipy import stats as sps
 
 from helpers import run_cli
@@ -314,6 +315,10 @@ def test_a_disagreement_names_its_side_in_the_verdict_line_and_the_figure(kept, 
              if ln.startswith("- ")]
     assert lines[0].startswith("- [**disagrees** (exceeds the claim)](figures/claim__00.png)")
     assert lines[1].startswith("- **disagrees** (falls short of the claim): m over raw")
+    colours = []
     for c, words in zip(mc["claims"], ("exceeds the claim", "falls short of the claim")):
         assert CF.fig_claim(c, tmp_path / "c.png")
-        assert any(words in t.get_text() for t in kept[-1].texts)
+        (verdict_text,) = [t for t in kept[-1].texts if words in t.get_text()]
+        colours.append(to_hex(verdict_text.get_color()))
+    # the two sides are told apart by colour too: better than the paper said is not red
+    assert colours[1] == "#c0392b" and colours[0] not in (colours[1], "#2a9d3f")

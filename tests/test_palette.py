@@ -101,6 +101,22 @@ def test_built_in_families_are_told_apart_whatever_scenario_combines_them():
         assert _delta_e(hues[a], hues[b]) > 10.0, (a, b)
 
 
+def test_every_member_of_every_family_reads_on_a_white_page():
+    """Members are shades of their family's hue; none fades towards the page (paper002's
+    rs_bp_gd, the third olive member, was L* 82 before light hues were only darkened)."""
+    for hue in [*PAL.FAMILY_HUES.values(), *PAL.EXTRA_HUES]:
+        members = [PAL._shade(hue, s) for s in
+                   (PAL.SHADES_LIGHT if _lab(hue)[0] > PAL.LIGHT_HUE_L else PAL.SHADES)]
+        assert all(_lab(c)[0] <= 75.0 for c in members[1:]), (hue, members)
+        for a, b in itertools.combinations(members, 2):
+            assert _delta_e(a, b) > 5.0, (hue, a, b)
+    for fam, hue in PAL.FAMILY_HUES.items():
+        st = PAL.styles([(f"m{k}", fam) for k in range(5)])
+        assert all(_lab(s.color)[0] <= max(75.0, _lab(hue)[0]) for s in st.values()
+                   if s.family == fam), (fam, st)
+    assert abs(PAL.lightness((188, 189, 34)) - _lab((188, 189, 34))[0]) < 1e-9
+
+
 def test_in_sample_tint_is_readable_and_distinct():
     for c in list(PAL.FAMILY_HUES.values()):
         t = PAL.in_sample(c)

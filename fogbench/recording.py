@@ -704,7 +704,8 @@ def _log_mc_plot(w: _Writer, root: str, metric: str, cols: dict, colors) -> None
     positive and they span more than a factor 10, else linear. ``{root}/<protocol>/<label>``
     holds the dots at (x, row), x the value (log axis: its log10), under the transform onto its
     box; a label far from all the others (:func:`_off_scale`) has no dots there but a note,
-    ``off scale, median ...``, at the box's edge."""
+    ``off scale: <median>``, at the box's edge (short: a column of paper002's four is about
+    150 px wide in a 1280 px window, some 22 characters)."""
     rr, rec = w.rr, w.rec
     prots = list(cols)
     labels = list(dict.fromkeys(lab for pr in prots for lab in cols[pr]))
@@ -727,8 +728,15 @@ def _log_mc_plot(w: _Writer, root: str, metric: str, cols: dict, colors) -> None
     box_h = n * _MC_ROW
     names_w = 0.1 + LEGEND_CHAR_W * max((len(x) for x in labels), default=4)
     gap = 0.15
-    # the boxes as wide as a plot about twice as wide as tall leaves beside the names
-    box_w = max(_MC_W / len(prots) + 0.3,
+    notes = {(pr, lab): f"off scale: {fmt(float(np.median(f)), metric)}"
+             for (pr, lab, _), f, o in zip(cells, fin, off) if o and f.size}
+    # the boxes as wide as a plot about twice as wide as tall leaves beside the names, and
+    # each at least as wide as its longest text (an off-scale note, the protocol's name under
+    # it): paper002's four columns (two protocols and their ideal twins) ran notes into the
+    # next column
+    text_w = LEGEND_CHAR_W * max([len(x) for x in notes.values()]
+                                 + [len(pr) if len(prots) > 1 else 0 for pr in prots]) + 0.06
+    box_w = max(_MC_W / len(prots) + 0.3, text_w,
                 (2.0 * (box_h + 0.35) - names_w - gap * (len(prots) - 1)) / len(prots))
     sx = box_w / (hi - lo)
     if log:
@@ -780,7 +788,7 @@ def _log_mc_plot(w: _Writer, root: str, metric: str, cols: dict, colors) -> None
         if o:
             med = float(np.median(f))
             left = (math.log10(med) if log and med > 0 else med) < lo
-            note = f"off scale, median {fmt(med, metric)}"
+            note = notes[(pr, lab)]
             rec.log(f"{path}/off_scale", rr.Points2D(
                 [(lo + (0.5 * LEGEND_CHAR_W * len(note)) / sx if left
                   else hi - (0.5 * LEGEND_CHAR_W * len(note)) / sx, y)],

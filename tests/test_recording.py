@@ -992,7 +992,7 @@ def test_a_label_far_from_the_others_is_named_off_scale_and_the_axis_spans_the_r
     with pytest.raises((AssertionError, KeyError)):
         _static_points(rrd, f"{origin}/held_out/zero")
     assert _static_labels(rrd, f"{origin}/held_out/zero/off_scale") == [
-        "off scale, median 0"]
+        "off scale: 0"]
     # the vertical grid lines (the x ticks, in data units) lie within the others' values
     ticks = [st[0][0] for st in rrd.static_strips(f"{origin}/held_out/axes/grid")
              if st[0][0] == st[1][0]]
@@ -1000,6 +1000,37 @@ def test_a_label_far_from_the_others_is_named_off_scale_and_the_axis_spans_the_r
     xs = np.concatenate([_static_points(rrd, f"{origin}/held_out/{lab}")[:, 0]
                          for lab in close])
     np.testing.assert_allclose(np.sort(xs), np.sort(np.concatenate(list(close.values()))))
+
+
+def test_off_scale_notes_and_protocol_names_stay_in_their_own_column(tiny, tmp_path):
+    """paper002 (two protocols and their ideal twins: four columns) ran the off-scale notes of
+    one column into the next. Every note and every protocol name, at the estimated width of its
+    characters (R.LEGEND_CHAR_W), lies within its column's box, and the boxes do not overlap."""
+    res, _, _ = tiny
+    close = {f"m{i}": [10.0 + i, 10.5 + i, 11.0 + i] for i in range(5)}
+    prots = ["held_out", "held_out.ideal", "refit_every_run", "refit_every_run.ideal"]
+    reps = {p: {"rmse_dph": {"raw": [123456.0, 123457.0, 123458.0], **close}} for p in prots}
+    R.write_recording(res, tmp_path / "recording.rrd", replicates=reps)
+    rrd = Rrd(tmp_path / "recording.rrd")
+    origin = "/report/replicates/rmse_dph"
+    half = 0.5 * R.LEGEND_CHAR_W
+    boxes = []
+    for p in prots:
+        tx = _static_component(rrd, f"{origin}/{p}/axes", "Transform3D:translation")[0][0]
+        sx = _static_component(rrd, f"{origin}/{p}/axes", "Transform3D:scale")[0][0]
+        xs = [x for st in rrd.static_strips(f"{origin}/{p}/axes/grid") for x, _ in st]
+        box = (tx + sx * min(xs), tx + sx * max(xs))
+        boxes.append(box)
+        (note,) = _static_labels(rrd, f"{origin}/{p}/raw/off_scale")
+        assert note.startswith("off scale: ")
+        x = tx + sx * _static_points(rrd, f"{origin}/{p}/raw/off_scale")[0, 0]
+        assert box[0] - 1e-6 <= x - half * len(note) and x + half * len(note) <= box[1] + 1e-6
+        labs = _static_labels(rrd, f"{origin}/{p}/axes/labels")
+        pts = _static_points(rrd, f"{origin}/{p}/axes/labels")
+        (k,) = [i for i, t in enumerate(labs) if t == p]
+        x = tx + sx * pts[k, 0]
+        assert box[0] - 1e-6 <= x - half * len(p) and x + half * len(p) <= box[1] + 1e-6
+    assert all(a[1] < b[0] for a, b in zip(boxes, boxes[1:]))
 
 
 @pytest.mark.parametrize("bad,where", [

@@ -92,3 +92,16 @@ def test_no_circular_imports_within_fogbench():
 
     cycles = sorted(a for a in graph if a in reach(a))
     assert cycles == [], f"modules on an import cycle: {cycles}"
+
+
+def test_every_package_directory_is_installed():
+    """``pip install .`` (not editable) installs only the packages pyproject.toml lists: a
+    subpackage missing from the list (``fogbench.reallog`` was, after the split of
+    ``reallog.py``) imports from a clone and fails for a user who installed the wheel."""
+    import tomllib
+
+    listed = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+                 ["packages"])
+    found = {".".join(p.parent.relative_to(ROOT).parts)
+             for top in ("sim", "fogcomp", "fogbench") for p in (ROOT / top).rglob("__init__.py")}
+    assert found == listed

@@ -449,3 +449,29 @@ def test_shuffled_presentation_is_seeded_and_differs_from_recorded():
 def test_validate_refuses_without_data(name, kw, arg):
     with pytest.raises(ValueError, match=arg):
         fogcomp.make_method(name, **kw)._validate()
+
+
+def test_a_column_of_rounding_is_not_identified_and_a_real_small_tilt_is():
+    """The lab's nominal attitude puts gy gz at rounding level (1e-17 g^2) where the truth has a
+    5 arcsec tilt: scaled to unit RMS, rounding looked like a regressor and its coefficient came
+    out at 1e14 deg/h/g^2 (thermal_with_motion on the lab's references). Checked against the
+    analytic least-squares solution of the design without that column."""
+    rng = np.random.default_rng(3)
+    n = 4000
+    x1, x2 = rng.normal(size=n), rng.normal(size=n)
+    noise_col = 1e-17 * rng.normal(size=n)            # rounding of a nominal zero
+    tilt_col = 2.4e-5 * rng.normal(size=n)            # 5 arcsec of tilt times 1 g
+    y = 1.0 + 2.0 * x1 - 3.0 * x2 + 1e-3 * rng.normal(size=n)
+    X = np.column_stack([np.ones(n), x1, x2, noise_col])
+    coef, rep = lstsq_identify(X, y, ["c", "a", "b", "rounding"], warn=False)
+    ref = np.linalg.lstsq(X[:, :3], y, rcond=None)[0]
+    np.testing.assert_allclose(coef[:3], ref, rtol=1e-9, atol=1e-12)
+    assert list(rep.identified) == [True, True, True, False]
+    assert abs(coef[3]) < 1.0
+    # a small but real regressor stays identified, with its true coefficient
+    y2 = y + 1e3 * tilt_col
+    X2 = np.column_stack([np.ones(n), x1, x2, tilt_col])
+    coef2, rep2 = lstsq_identify(X2, y2, ["c", "a", "b", "tilt"], warn=False)
+    assert list(rep2.identified) == [True] * 4
+    np.testing.assert_allclose(coef2, np.linalg.lstsq(X2, y2, rcond=None)[0], rtol=1e-6)
+    assert abs(coef2[3] - 1e3) < 5 * rep2.stderr[3]

@@ -241,10 +241,19 @@ def _rref(a: np.ndarray, tol: float = 1e-9) -> np.ndarray:
     return a
 
 
-def _column_scale(X: np.ndarray) -> np.ndarray:
+#: A column whose RMS is below this fraction of the largest column's holds rounding, not a
+#: regressor: the lab's nominal attitude puts gy gz at 1e-17 g^2 where the truth's table has
+#: 5 arcsec of tilt (2.4e-5 g^2); scaled to unit RMS, the rounding looked like a well-conditioned
+#: column and its coefficient came out at 1e14 deg/h/g^2 (thermal_with_motion, lab references).
+NUMERICALLY_ZERO = 1e-10
+
+
+def _column_scale(X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(unit-RMS scale of each column, mask of numerically zero columns)."""
     s = np.sqrt(np.mean(X * X, axis=0))
-    s[s == 0] = 1.0
-    return s
+    zero = ~(s > NUMERICALLY_ZERO * (s.max() if s.size else 0.0))
+    s[zero] = 1.0
+    return s, zero
 
 
 def lstsq_identify(X: np.ndarray, y: np.ndarray, names, rcond: float = DEFAULT_RCOND,
@@ -295,7 +304,10 @@ def lstsq_identify(X: np.ndarray, y: np.ndarray, names, rcond: float = DEFAULT_R
         raise ValueError(f"names: need {p} names, got {len(names)}")
     if not (np.isfinite(rcond) and rcond > 0):
         raise ValueError(f"rcond: must be a positive finite number, got {rcond!r}")
-    s = _column_scale(X)
+    s, zero = _column_scale(X)
+    if zero.any():          # such a column identifies nothing: its coefficient is in the null space
+        X = X.copy()
+        X[:, zero] = 0.0
     U, S, Vt = np.linalg.svd(X / s, full_matrices=False)
     S_full = np.zeros(p)
     S_full[:S.size] = S
@@ -782,9 +794,10 @@ class Flnn(_FlnnBase):
                                                 getattr(self, "fitted_", False)) else None
         self.fitted_ = False                       # a re-fit replaces everything
         _, ident = self._identify(F, error)
-        s = _column_scale(F)
+        s, zero = _column_scale(F)
         y_scale = float(np.sqrt(np.mean(error * error))) or 1.0
         Fs = F / s
+        Fs[:, zero] = 0.0       # rounding, not a regressor (NUMERICALLY_ZERO): left untrained
         ys = error / y_scale
         rng = self._rng()
         if prev is not None:

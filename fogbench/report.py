@@ -278,7 +278,8 @@ def _kept_alike(errs: dict, methods: list[str]):
 
     - ``"trend"``: every method keeps raw's slow error (a denoiser under a wander: over
       TREND_TEST k, each method's moving mean correlates with raw's by >= TREND_CORR, its std
-      within a factor 2 of raw's): raw's trend (returned) is taken out of every curve.
+      within a factor 2 of raw's): raw's trend about its mean (returned) is taken out of every
+      curve.
     - ``"fast"``: every method keeps raw's fast error (a drift model under white noise: what is
       left after the k-sample moving mean correlates with raw's by >= TREND_CORR, std within a
       factor 2): every curve is drawn as its k-sample moving mean.
@@ -303,7 +304,9 @@ def _kept_alike(errs: dict, methods: list[str]):
         return True
 
     if alike(lambda e: _moving_mean(e, TREND_TEST * k)):
-        return "trend", _moving_mean(raw, k), k
+        # its variation only: a method that removes raw's constant part (a bias) keeps its own
+        # level (lab_references: 2 deg/h of bias removed, drawn at -2 deg/h when raw's mean went)
+        return "trend", _moving_mean(raw, k) - float(np.mean(raw)), k
     if alike(lambda e: e - _moving_mean(e, k)):
         return "fast", None, k
     return None, None, k
@@ -384,7 +387,8 @@ def fig_timeseries(it, path: Path, plan=None) -> int:
         if kind is not None and "raw" in errs:
             ax.plot(t, _moving_mean(errs["raw"], k)[::step], color="black", lw=1.2, zorder=9,
                     label=f"raw's {k}-sample moving mean"
-                          + ("; taken out below" if kind == "trend" else "; below for each"))
+                          + ("; less its mean, taken out below" if kind == "trend"
+                             else "; below, each curve's"))
         ax.set_ylabel(f"error, {PAL.ERROR_UNIT}", fontsize=9)
         _min_span(ax, PAL.ERROR_UNIT)
         ax.legend(**LEGEND)
@@ -392,7 +396,8 @@ def fig_timeseries(it, path: Path, plan=None) -> int:
     what = {"trend": "error - raw's trend", "fast": f"error, {k}-sample mean"}.get(
         kind, "error vs truth")
     dt = k / p.fs
-    note = {"trend": "; raw's trend taken out of every curve: no method removes it",
+    note = {"trend": "; raw's slow variation about its mean taken out of every curve: no "
+                     "method removes it",
             "fast": f"; {k}-sample ({dt:.3g} s) moving means: every method keeps raw's faster "
                     "noise"}.get(kind, "")
     for i, chunk in enumerate(panels):

@@ -212,7 +212,7 @@ def test_a_wander_no_denoiser_removes_is_taken_out_of_every_curve(figs, tmp_path
     R.fig_timeseries(it, tmp_path / "t.png", plan=_plan())
     fig = figs[-1]
     k = round(n / 50)
-    trend = _slow_moving_mean(list((raw - truth) / DPH), k)
+    trend = _slow_moving_mean(list((raw - truth) / DPH), k) - np.mean((raw - truth) / DPH)
     ln = next(ln for ax in fig.axes for ln in ax.get_lines() if ln.get_label() == "kalman")
     np.testing.assert_allclose(ln.get_ydata(), (outs["kalman"] - truth) / DPH - trend,
                                rtol=1e-9, atol=1e-9)
@@ -220,6 +220,27 @@ def test_a_wander_no_denoiser_removes_is_taken_out_of_every_curve(figs, tmp_path
     # the wander is gone from the methods' panel: it spans their noise, not the 1000 deg/h
     lo, hi = ln.axes.get_ylim()
     assert hi - lo < 500.0
+
+
+def test_a_bias_the_methods_remove_under_the_trend_stays_visible(figs, tmp_path):
+    """lab_references: the methods remove a 2 deg/h bias but keep raw's slow variation; taking
+    raw's whole trend out drew them at -2 deg/h under a caption saying no method removes it.
+    Only raw's variation about its mean is taken out: the methods sit near 0, raw near +2."""
+    n, fs = 2000, 100.0
+    rng = np.random.default_rng(5)
+    truth = np.zeros(n)
+    wander = 30.0 * np.sin(2 * np.pi * np.arange(n) / n * 2.0) * DPH
+    raw = truth + 2.0 * DPH + wander + rng.standard_normal(n) * 0.5 * DPH
+    outs = {"raw": raw, "oracle": raw - 2.0 * DPH}
+    for i, lab in enumerate(["kalman", "wnn"]):
+        outs[lab] = raw - 2.0 * DPH + rng.standard_normal(n) * 0.05 * DPH
+    R.fig_timeseries(_item(outs, truth, fs), tmp_path / "t.png", plan=_plan())
+    fig = figs[-1]
+    for lab in ("kalman", "wnn"):
+        ln = next(ln for ax in fig.axes for ln in ax.get_lines() if ln.get_label() == lab)
+        assert abs(float(np.mean(ln.get_ydata()))) < 0.2, lab     # its own level: ~0
+    title = " ".join(ax.get_title() for ax in fig.axes)
+    assert "about its mean" in title
 
 
 def test_a_fast_noise_no_drift_model_removes_is_averaged_out(figs, tmp_path):

@@ -409,7 +409,8 @@ def fig_timeseries(it, path: Path, plan=None) -> int:
         if methods:
             ax.set_ylim(lo - pad, hi + pad)
         _min_span(ax, PAL.ERROR_UNIT)
-        ax.set_ylabel(f"{what}, {PAL.ERROR_UNIT}", fontsize=9)
+        # two lines: "error, 10-sample mean, deg/h" on one ran into the next panel's label
+        ax.set_ylabel(f"{what},\n{PAL.ERROR_UNIT}", fontsize=9)
         ax.legend(**LEGEND)
         if i == 0:
             ax.set_title("methods' error, zoomed to them"
@@ -729,7 +730,7 @@ def fig_coefficients(res: ScenarioResult, protocol: str, path: Path) -> bool:
     ax.set_title(f"{protocol}: coefficients fitted on {_fit_runs(res, protocol)} against the "
                  f"true ones of {run0}\n(terms d0-d9 as in paper 004, Table 1)", fontsize=10)
     ax.axhline(0, color="0.7", lw=0.5)
-    ax.legend(fontsize=8)
+    ax.legend(**LEGEND)         # right of the bars: inside, it covered d5-d7
     _save(fig, path)
     return True
 

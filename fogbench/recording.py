@@ -31,6 +31,7 @@ a protocol scores the same run more than once; `<label>`: `raw`, `oracle` or a m
 | `/runs/<run>/fog/raw` | raw FOG output, deg/s |
 | `/runs/<run>/fog/compensated/<protocol>/<label>` | output of a scored piece (raw, oracle, each method), deg/s |
 | `/runs/<run>/fog/error/<protocol>/<label>` | that output minus the truth, deg/h |
+| `/runs/<run>/fog/error_shown/<protocol>/<label>` | the same with what every output keeps alike taken out (`fogbench.views.kept_alike`, as the PNG time series): raw's slow variation about its mean under a wander no method removes, or each curve's moving mean under fast noise every method keeps; only for pieces that have such a thing; the Overview shows these, the Errors tab the errors as they are, deg/h |
 | `/runs/<run>/fog/error_terms/<term>` | each simulated error term (`FogOutput.terms`), deg/h |
 | `/runs/<run>/table/tilt_deg`, `tilt_cmd_deg` | tilt angle and its command, deg |
 | `/runs/<run>/table/turn_rate_dps`, `turn_rate_cmd_dps` | turntable rate and its command, deg/s |
@@ -124,6 +125,7 @@ from fogcomp.units import DPH, DPS
 
 from . import palette as PAL
 from .fmt import decimation, fmt, md_table, metrics_table
+from .views import DWARF, kept_alike, moving_mean
 
 __all__ = ["write_recording", "view", "blueprint_for", "ReplicatesError", "decimation", "psd_interval",
            "MAX_SERIES_POINTS", "MAX_POSE_POINTS", "TIMELINE", "REPLICATE_TIMELINE",
@@ -225,6 +227,7 @@ class _Writer:
         self.mc_plots: dict[str, str] = {}                    # headline metric -> plot root
         self.mc_plotted: set[tuple[str, str]] = set()         # (protocol, metric) plotted
         self.mc_width: dict[str, float] = {}                  # Monte Carlo plot -> box width
+        self.shown: dict[str, tuple[str, int]] = {}           # error root -> (kind, k) taken out
 
     def _time(self, t: np.ndarray, timeline: str = TIMELINE):
         ns = np.round(np.asarray(t, dtype=float) * 1e9).astype(np.int64)
@@ -525,6 +528,12 @@ def _log_piece(w: _Writer, key: str, it, colors, in_sample: bool,
     s = slice(None, None, k)
     allan, psd = [], []
     nper = 0
+    # what every output keeps alike (a wander no method removes), taken out for the Overview's
+    # error view as in the PNG time series (fogbench.views.kept_alike)
+    errs = {lab: (out - p.truth) / DPH for lab, out in it.outputs.items()}
+    kind, trend, kw = kept_alike(errs, [lab for lab in errs if lab not in ("raw", "oracle")])
+    if kind is not None:
+        w.shown[_p("runs", it.run, "fog", "error", key)] = (kind, kw)
     for lab, out in it.outputs.items():
         c = _piece_color(colors, lab, in_sample)
         name = _piece_name(names.get(lab, lab), in_sample)        # Allan and PSD legends
@@ -534,7 +543,11 @@ def _log_piece(w: _Writer, key: str, it, colors, in_sample: bool,
                  sname, c, width)
         w.series(_p("runs", it.run, "fog", "error", key, lab), p.t[s],
                  (out[s] - p.truth[s]) / DPH, sname, c, width)
-        err = (out - p.truth) / DPH
+        err = errs[lab]
+        if kind is not None:
+            shown = err - trend if kind == "trend" else moving_mean(err, kw)
+            w.series(_p("runs", it.run, "fog", "error_shown", key, lab), p.t[s], shown[s],
+                     sname, c, width)
         if p.raw.size >= 64:
             try:
                 # intervals from the EDF of the noise type leading each tau (Greenhall & Riley)
@@ -977,6 +990,50 @@ def _y_axis_with_headroom(w: _Writer, paths: list[str]):
     return rrb.ScalarAxis(range=(lo - 0.05 * span, hi + LEGEND_HEADROOM * span))
 
 
+def _shown_path(w: _Writer, path: str) -> str:
+    """The Overview's series of an error path: the one with what every output keeps alike
+    taken out (``.../fog/error_shown/...``) where the piece has one, else the path itself."""
+    root, lab = path.rsplit("/", 1)
+    if root not in w.shown:
+        return path
+    head, key = root.rsplit("/", 1)
+    return f"{head[:-len('error')]}error_shown/{key}/{lab}"
+
+
+def _y_axis_zoomed(w: _Writer, paths: list[str]):
+    """The error view's y range zoomed to the methods, raw and oracle in it unless the range
+    holding them would span more than DWARF times the methods' (as the PNG's zoom), with the
+    legend's headroom above; ``(axis, labels left off the scale)``."""
+    import rerun.blueprint as rrb
+
+    def ranges(ps):
+        return [w.ranges[x] for x in ps if x in w.ranges]
+
+    refs = [x for x in paths if x.rsplit("/", 1)[1] in ("raw", "oracle")]
+    methods = ranges([x for x in paths if x not in refs])
+    if not methods:
+        return _y_axis_with_headroom(w, paths), []
+    lo, hi = min(a for a, _ in methods), max(b for _, b in methods)
+    width = max(hi - lo, 1e-300)
+    off = []
+    for x in refs:
+        rr_ = ranges([x])
+        if not rr_:
+            continue
+        a, b = rr_[0]
+        if max(b, hi) - min(a, lo) > DWARF * width:
+            off.append(x.rsplit("/", 1)[1])
+    keep = [x for x in paths if x.rsplit("/", 1)[1] not in off]
+    fixed = _y_axis(w, keep)
+    if fixed is not None:
+        return fixed, sorted(set(off))
+    r = ranges(keep)
+    lo, hi = min(a for a, _ in r), max(b for _, b in r)
+    span = hi - lo
+    return rrb.ScalarAxis(range=(lo - 0.05 * span, hi + LEGEND_HEADROOM * span)), \
+        sorted(set(off))
+
+
 def _blueprint_class():
     import rerun.blueprint as rrb
 
@@ -1054,8 +1111,26 @@ def _blueprint(res, w: _Writer, reps: dict | None = None, active_tab: str = "Ove
     table3d = rrb.Spatial3DView(
         name=f"Rate tables (3-D): orange = sensitive axis {res.plan.axis}, green = gravity (1 g up)",
         origin="/table", eye_controls=eye)
-    err_tabs = [plot(f"Error vs truth, {r}, deg/h", lst, legend=True, headroom=True)
-                for r, lst in error_views.items()]
+    err_tabs = []
+    for r, lst in error_views.items():
+        # the Overview: what every output keeps alike taken out (as the PNG time series), zoomed
+        # to the methods; the errors as they are in the Errors tab
+        shown = [_shown_path(w, x) for x in lst]
+        kinds = sorted({w.shown[x.rsplit("/", 1)[0]] for x in lst
+                        if x.rsplit("/", 1)[0] in w.shown})
+        what = ("Error less raw's slow variation (no method removes it)"
+                if kinds and all(kd == "trend" for kd, _ in kinds) else
+                f"Error, {kinds[0][1]}-sample moving mean (every method keeps raw's fast noise)"
+                if len(kinds) == 1 else
+                "Error (less what every method keeps alike)" if kinds else "Error vs truth")
+        axis, off = _y_axis_zoomed(w, shown)
+        note = f"; {' and '.join(off)} off this scale" if off else ""
+        plain = "; as they are: tab Errors" if (kinds or off) and len(error_views) > 1 else \
+            "; as they are: drag to zoom out" if kinds or off else ""
+        err_tabs.append(rrb.TimeSeriesView(
+            name=f"{what}, {r}, deg/h{note}{plain}", contents=shown, axis_x=time_axis,
+            axis_y=axis, time_ranges=[whole],
+            plot_legend=rrb.PlotLegend(visible=True, corner="RightTop")))
     overview = rrb.Horizontal(
         rrb.Vertical(table3d, rrb.TextDocumentView(name="Metrics", origin="/report/metrics"),
                      row_shares=[3, 2]),

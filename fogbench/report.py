@@ -24,6 +24,7 @@ from .fmt import (key_metric, KEY_METRICS, ci_text, decimation, fmt, md_table,  
                   metrics_table, p_better_text)
 from .io import atomic_write_bytes, atomic_write_text, run_arrays, save_figure as _save, versions  # noqa: E402
 from . import palette as PAL  # noqa: E402
+from .views import DWARF, kept_alike as _kept_alike, moving_mean as _moving_mean  # noqa: E402
 from .claim_figures import (SETUP_HEADING, draw_claim_figures, open_on_answer,  # noqa: E402
                             takeaway, verdict_link)
 from .outdir import as_final, check_out_dir, discard_part, new_part_dir, replace_dir  # noqa: E402
@@ -158,14 +159,6 @@ def _min_span(ax, unit: str) -> None:
 # Views that show the effect (issue 26): sweeps as envelopes, at most MAX_LINES lines a panel,
 # raw in its own panel when it dwarfs the methods, what every output keeps alike taken out
 MAX_LINES = 8        # lines in one panel at most; more methods are split over more panels
-DWARF = 3.0          # raw (oracle) gets its own panel when an axis holding it and the methods'
-#                      errors would span more than this many times the methods' errors
-TREND_FRACTION = 1 / 50   # raw's trend: centred moving mean over this fraction of the piece
-TREND_CORR = 0.9     # ... taken out of every curve when every method keeps raw's slow error:
-#                      over TREND_TEST times that window, each method's moving mean correlates
-#                      with raw's by >= this, its std within a factor 2: a wander no method
-#                      removes (denoisers) is not what the methods differ on
-TREND_TEST = 5
 TS_METHOD_LINES = 4  # a time series panel: at most this many methods' (noisy) traces beside
 #                      raw and oracle, whole families together
 LEGEND = {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0), "fontsize": 8,
@@ -256,60 +249,6 @@ def _draw_entry(ax, x, curves: dict, e: dict, sty: dict, **kw):
     setting = d[len(e["group"]) + 1:] if d.startswith(e["group"] + ".") else d
     st["ls"] = "-"
     return ax.plot(x, curves[d], label=f"{e['group']} default ({setting})", **st)
-
-
-def _moving_mean(y: np.ndarray, k: int) -> np.ndarray:
-    """Centred moving mean over ``k`` samples; near the ends, the mean of the samples there
-    are (the window shrinks: no padding)."""
-    y = np.asarray(y, dtype=float)
-    n = y.size
-    h = max(1, int(k)) // 2
-    c = np.concatenate(([0.0], np.cumsum(y)))
-    i = np.arange(n)
-    a, b = np.maximum(i - h, 0), np.minimum(i + h + 1, n)
-    return (c[b] - c[a]) / (b - a)
-
-
-def _kept_alike(errs: dict, methods: list[str]):
-    """What every output keeps alike, to take out of the methods' panels: ``(kind, trend, k)``.
-
-    ``k`` is TREND_FRACTION of the piece (samples); raw's trend is the centred moving mean of
-    its error over ``k``.
-
-    - ``"trend"``: every method keeps raw's slow error (a denoiser under a wander: over
-      TREND_TEST k, each method's moving mean correlates with raw's by >= TREND_CORR, its std
-      within a factor 2 of raw's): raw's trend about its mean (returned) is taken out of every
-      curve.
-    - ``"fast"``: every method keeps raw's fast error (a drift model under white noise: what is
-      left after the k-sample moving mean correlates with raw's by >= TREND_CORR, std within a
-      factor 2): every curve is drawn as its k-sample moving mean.
-    - ``None``: the methods differ in both; errors are drawn as they are.
-    """
-    raw = errs.get("raw")
-    if raw is None or not methods or raw.size < 20:
-        return None, None, 0
-    k = max(3, round(raw.size * TREND_FRACTION))
-
-    def alike(part):
-        ref = part(raw)
-        s = float(np.std(ref))
-        if not s > 0:
-            return False
-        for lab in methods:
-            x = part(errs[lab])
-            sx = float(np.std(x))
-            if not (sx > 0 and 0.5 <= sx / s <= 2.0
-                    and float(np.corrcoef(ref, x)[0, 1]) >= TREND_CORR):
-                return False
-        return True
-
-    if alike(lambda e: _moving_mean(e, TREND_TEST * k)):
-        # its variation only: a method that removes raw's constant part (a bias) keeps its own
-        # level (lab_references: 2 deg/h of bias removed, drawn at -2 deg/h when raw's mean went)
-        return "trend", _moving_mean(raw, k) - float(np.mean(raw)), k
-    if alike(lambda e: e - _moving_mean(e, k)):
-        return "fast", None, k
-    return None, None, k
 
 
 def _span(curves) -> tuple[float, float]:

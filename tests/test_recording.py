@@ -204,7 +204,8 @@ def test_the_file_holds_one_recording_named_after_the_scenario_and_a_blueprint(t
                 names |= {x for row in rb.column(col).to_pylist() for x in row or []}
         if "TimePanelBlueprint:timeline" in rb.schema.names:
             timeline = rb.column("TimePanelBlueprint:timeline").to_pylist()[0][0]
-    assert {"Overview", "Error vs truth, test_run, deg/h", "Table and chamber",
+    assert any(n.startswith("Error") and "test_run, deg/h" in n for n in names), names
+    assert {"Overview", "Table and chamber",
             "Allan deviation", "PSD", "Report"} <= names
     assert any(n.startswith("Rate tables (3-D)") for n in names)
     assert timeline == R.TIMELINE
@@ -1063,3 +1064,42 @@ def test_view_says_when_it_handed_the_file_to_a_viewer_already_running(tmp_path,
     assert R.view(tmp_path) == 0
     out = capsys.readouterr().out
     assert "already running" in out and str(tmp_path / "recording.rrd") in out
+
+
+def test_the_overview_error_view_takes_out_raw_s_wander_and_zooms_to_the_methods(tiny):
+    """paper000-like: low_grade's 0.16 deg/s Gauss-Markov drift is a wander every denoiser keeps.
+    The Overview shows the errors with one curve taken out of all of them (so the paired
+    differences between outputs, what the verdicts rest on, are those of the errors as they
+    are), that curve is raw's slow variation (the shown raw error has far less slow variation
+    than the raw error), and the view's y range holds the methods' shown errors but not raw's
+    whole error."""
+    res, _, rrd = tiny
+    (it,) = res.scored
+    root = f"/runs/{it.run}/fog"
+    labs = list(it.outputs)
+    err = {lab: rrd.scalars(f"{root}/error/{it.protocol}/{lab}")[1] for lab in labs}
+    shown = {lab: rrd.scalars(f"{root}/error_shown/{it.protocol}/{lab}")[1] for lab in labs}
+    out = {lab: err[lab] - shown[lab] for lab in labs}        # what was taken out of each
+    scale = max(float(np.ptp(e)) for e in err.values())
+    for lab in labs:
+        np.testing.assert_allclose(out[lab], out["raw"], atol=1e-5 * scale, err_msg=lab)
+    # raw's slow variation: a 1 s moving mean of raw's error varies far less once it is out
+    k = int(it.piece.fs)
+
+    def slow(y):
+        return np.convolve(y, np.ones(k) / k, mode="valid")
+    assert np.std(slow(shown["raw"])) < 0.3 * np.std(slow(err["raw"]))
+    # the Overview's error view lists the shown series, and its y range holds the methods'
+    props = _blueprint_props(rrd)
+    (view,) = [p for p, c in props.items()
+               if any(str(n).startswith("Error") and it.run in str(n)
+                      for n in c.get("ViewBlueprint:display_name") or [])
+               and not any("colours as in Overview" in str(n)
+                           for n in c.get("ViewBlueprint:display_name") or [])]
+    query = " ".join(props[f"{view}/ViewContents"]["ViewContents:query"])
+    assert f"error_shown/{it.protocol}/kalman" in query, query
+    (rng,) = props[f"{view}/ScalarAxis"]["ScalarAxis:range"]
+    lo, hi = rng.values() if isinstance(rng, dict) else rng
+    methods = np.concatenate([shown[lab] for lab in labs if lab not in ("raw", "oracle")])
+    assert lo <= methods.min() and methods.max() <= hi
+    assert hi - lo < np.ptp(err["raw"])

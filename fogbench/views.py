@@ -1,0 +1,78 @@
+"""What a view of the errors takes out so that the methods' differences show (issue 26).
+
+Shared by the PNG time series (``fogbench.report.fig_timeseries``) and the recording's
+Overview (``fogbench.recording``), so that both take out the same thing. No plotting here.
+
+Under a wander no denoiser removes (paper000's +-1000 deg/h Gauss-Markov drift), the methods'
+errors are raw's wander plus a small difference; drawn as they are, the difference is a line
+width. :func:`kept_alike` finds what every output keeps alike, by correlation against raw's
+error, and says what to take out.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+DWARF = 3.0          # raw (oracle) gets its own panel (PNG), or is left off the zoom (viewer),
+#                      when an axis holding it and the methods' errors would span more than
+#                      this many times the methods' errors
+TREND_FRACTION = 1 / 50   # raw's trend: centred moving mean over this fraction of the piece
+TREND_CORR = 0.9     # ... taken out of every curve when every method keeps raw's slow error:
+#                      over TREND_TEST times that window, each method's moving mean correlates
+#                      with raw's by >= this, its std within a factor 2: a wander no method
+#                      removes (denoisers) is not what the methods differ on
+TREND_TEST = 5
+
+
+def moving_mean(y: np.ndarray, k: int) -> np.ndarray:
+    """Centred moving mean over ``k`` samples; near the ends, the mean of the samples there
+    are (the window shrinks: no padding)."""
+    y = np.asarray(y, dtype=float)
+    n = y.size
+    h = max(1, int(k)) // 2
+    c = np.concatenate(([0.0], np.cumsum(y)))
+    i = np.arange(n)
+    a, b = np.maximum(i - h, 0), np.minimum(i + h + 1, n)
+    return (c[b] - c[a]) / (b - a)
+
+
+def kept_alike(errs: dict, methods: list[str]):
+    """What every output keeps alike, to take out of the methods' panels: ``(kind, trend, k)``.
+
+    ``k`` is TREND_FRACTION of the piece (samples); raw's trend is the centred moving mean of
+    its error over ``k``.
+
+    - ``"trend"``: every method keeps raw's slow error (a denoiser under a wander: over
+      TREND_TEST k, each method's moving mean correlates with raw's by >= TREND_CORR, its std
+      within a factor 2 of raw's): raw's trend about its mean (returned) is taken out of every
+      curve.
+    - ``"fast"``: every method keeps raw's fast error (a drift model under white noise: what is
+      left after the k-sample moving mean correlates with raw's by >= TREND_CORR, std within a
+      factor 2): every curve is drawn as its k-sample moving mean.
+    - ``None``: the methods differ in both; errors are drawn as they are.
+    """
+    raw = errs.get("raw")
+    if raw is None or not methods or raw.size < 20:
+        return None, None, 0
+    k = max(3, round(raw.size * TREND_FRACTION))
+
+    def alike(part):
+        ref = part(raw)
+        s = float(np.std(ref))
+        if not s > 0:
+            return False
+        for lab in methods:
+            x = part(errs[lab])
+            sx = float(np.std(x))
+            if not (sx > 0 and 0.5 <= sx / s <= 2.0
+                    and float(np.corrcoef(ref, x)[0, 1]) >= TREND_CORR):
+                return False
+        return True
+
+    if alike(lambda e: moving_mean(e, TREND_TEST * k)):
+        # its variation only: a method that removes raw's constant part (a bias) keeps its own
+        # level (lab_references: 2 deg/h of bias removed, drawn at -2 deg/h when raw's mean went)
+        return "trend", moving_mean(raw, k) - float(np.mean(raw)), k
+    if alike(lambda e: e - moving_mean(e, k)):
+        return "fast", None, k
+    return None, None, k

@@ -1065,7 +1065,7 @@ def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_d
         if montecarlo is not None:
             # the answer first: takeaway, verdicts, evidence; then the set-up
             text = open_on_answer(text, render_montecarlo(res, montecarlo, fig_names),
-                                  montecarlo, fig_names)
+                                  montecarlo, fig_names, res.plan)
         else:
             bands = render_bands(res, None)
             if bands:

@@ -684,6 +684,7 @@ def _paper_value(plan, method, metric, run, segment=None):
 
 def render_report(res: ScenarioResult, fig_names: dict, decimation: dict) -> str:
     sc, plan, doc = res.scenario, res.plan, res.metrics
+    same = same_as_lab(res)
     L = [f"# {sc.name}", "", sc.description, "",
          f"Scenario file: `{Path(sc.path).name}`. FOG: {sc.device}; axis `{plan.axis}`; {sc.fs:g} Hz. Wall time {res.wall_s:.1f} s "
          "(simulating every run, fitting and scoring, in one process; it leaves out writing "
@@ -733,6 +734,11 @@ def render_report(res: ScenarioResult, fig_names: dict, decimation: dict) -> str
                 fn = fig_names.get((prot.name, run, kind))
                 if fn:
                     L += [f"![{kind} {run}]({fn})", ""]
+            if (prot.name, run) in same:
+                L += [f"(No figures of {run} here: every output of `{prot.name}` is "
+                      f"`{prot.twin_of}`'s to {SAME_FRACTION:g} of its error's span, under a "
+                      f"pixel; the lab's references and the truth gave the same fits. See "
+                      f"`{prot.twin_of}`'s figures.)", ""]
             if (prot.name, run) in decimation and decimation[(prot.name, run)] > 1:
                 L += [f"(Time series decimated by {decimation[(prot.name, run)]} for display "
                       "only; metrics use every sample.)", ""]
@@ -757,6 +763,31 @@ def render_report(res: ScenarioResult, fig_names: dict, decimation: dict) -> str
 
 
 SEGMENT_METRIC = "bias_stability_100s_dph"
+
+
+SAME_FRACTION = 1e-3  # an ideal twin's output this close to its lab protocol's: no own figures
+
+
+def same_as_lab(res: ScenarioResult) -> set[tuple[str, str]]:
+    """(protocol, run) of the ideal-lab twins (``<name>.ideal``) whose every output on that run
+    is the lab protocol's to SAME_FRACTION of that output's error span (max - min of output -
+    truth): each line would fall on the lab figure's own to under a pixel of any panel that
+    holds it (about 1/500 of its height), so the twin's figures are left out. Where the lab's
+    references are the truth to the servo's hold (a static table), both fits are the same."""
+    twin_of = {p.name: p.twin_of for p in res.plan.protocols if p.twin_of}
+    lab = {(it.protocol, it.run): it for it in res.scored}
+    out = set()
+    for it in res.scored:
+        other = lab.get((twin_of.get(it.protocol), it.run))
+        if other is None or set(other.outputs) != set(it.outputs) or \
+                other.piece.t.size != it.piece.t.size:
+            continue
+        truth = other.piece.truth
+        if all(float(np.max(np.abs(it.outputs[k] - other.outputs[k])))
+               <= SAME_FRACTION * float(np.ptp(other.outputs[k] - truth))
+               for k in it.outputs):
+            out.add((it.protocol, it.run))
+    return out
 
 
 def _segment_values(res: ScenarioResult, protocol: str, run: str):
@@ -1018,10 +1049,11 @@ def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_d
                 return None
 
         (tmp / "figures").mkdir()
+        same = same_as_lab(res)
         for it in res.scored:
             base = f"{it.protocol}__{it.run}"
             key = (it.protocol, it.run)
-            if key in decim:
+            if key in decim or key in same:
                 continue
             decim[key] = figure(f"{base} time series", fig_timeseries, it,
                                 tmp / "figures" / f"{base}__timeseries.png", res.plan) or 1

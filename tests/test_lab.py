@@ -624,3 +624,25 @@ def test_the_triads_keys_load_with_their_units_and_are_refused_where_they_change
         plan('gravity_source = "accelerometer"\nacc_noise_ug_rt_hz = 20000.0')
     with pytest.raises(ScenarioError, match="gravity_source"):
         plan('gravity_source = "imu"')
+
+
+def test_an_ideal_twin_draws_its_own_figures_only_where_its_fit_differs_from_the_labs(tmp_path):
+    """With the heading believed 1 deg off, the lab's bias is 0.186 deg/h off the ideal one's
+    (by hand above): `lab.ideal` gets its own figures. With a perfect [lab] on a table at rest the
+    lab's reference is the truth to the servo's hold (~1e-9 rad/s, 2e-4 deg/h), the two fits are
+    the same to far under a pixel, and the twin's figures are left out, the report saying why."""
+    from fogbench.report import write_run_dir
+    from fogbench.runner import run_scenario
+
+    for heading_error, drawn in ((1.0, True), (0.0, False)):
+        path = tmp_path / f"lab{heading_error:g}.toml"
+        path.write_text(LAB_SCENARIO.replace("heading_error_deg = 1.0",
+                                             f"heading_error_deg = {heading_error}"))
+        out = tmp_path / f"run{heading_error:g}"
+        write_run_dir(run_scenario(str(path)), out, recording=False)
+        figs = {f.name for f in (out / "figures").glob("*.png")}
+        assert "lab__b__timeseries.png" in figs
+        assert ("lab.ideal__b__timeseries.png" in figs) is drawn, sorted(figs)
+        report = (out / "report.md").read_text()
+        assert ("No figures of b here: every output of `lab.ideal` is `lab`'s" in report) \
+            is not drawn

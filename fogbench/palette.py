@@ -191,6 +191,7 @@ def min_span(lo: float, hi: float, unit: str) -> tuple[float, float]:
 #: Annex C; Riley, NIST SP 1065, 5.2-5.3) is still about +-25 % at one sigma; beyond it the
 #: last two or three octaves rest on two to seven clusters and the curve "plunges" or jumps.
 ALLAN_MIN_CLUSTERS = 8
+PSD_PER_DECADE = 10      # PSD figures and plots: Welch ordinates averaged in this many bands a decade
 
 
 def allan_drawn(m, n: int):

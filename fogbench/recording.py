@@ -45,7 +45,7 @@ a protocol scores the same run more than once; `<label>`: `raw`, `oracle` or a m
 | `/report/allan/<protocol>/<run>` | a log-log plot (static, 2-D view origin): `axes` (decade grid and labels), `legend` (names in their colours); `axes` and every curve carry the transform from (log10 tau/s, log10 deviation/(deg/h)) onto the plot |
 | `/report/allan/<protocol>/<run>/<label>` | overlapping Allan deviation of (output - truth): a line strip of points (log10 tau in s, log10 ADEV in deg/h), static; up to the longest tau with at least 8 non-overlapping clusters |
 | `/report/allan/<protocol>/<run>/<label>/ci` | its 68.3 % confidence interval at every tau: one vertical segment per tau, same coordinates |
-| `/report/psd/<protocol>/<run>`, `.../<label>` | the same for the Welch PSD of (output - truth), mean removed: (log10 f/Hz, log10 PSD/((deg/h)^2/Hz)); the interval is one factor for every frequency, stated in the legend |
+| `/report/psd/<protocol>/<run>`, `.../<label>` | the same for the Welch PSD of (output - truth), mean removed, averaged in 10 bands a decade (``fogcomp.metrics.psd_bands``, as the PNGs): (log10 f/Hz, log10 PSD/((deg/h)^2/Hz)), and `/ci` its interval per band |
 | `/replicates/<protocol>/<metric>/<label>` | with Monte Carlo replicates: the metric of each replicate on the sequence timeline `replicate` (points) |
 | `/replicates/summary` | the distribution of every replicated metric: median, 5-95 % range, finite replicates, one table per protocol and metric, the headline metrics first (markdown, static) |
 | `/report/replicates/<metric>` | a dot plot of a headline metric over the replicates (static, 2-D view origin), a column per protocol: `names` (a row per label, named left of the columns), `title`; `<protocol>/axes` (grid, tick labels, the protocol's name), `<protocol>/<label>` the dots, one per replicate, at (value or its log10, row) under the transform onto the column, `<protocol>/<label>/range` its 5-95 % bar and median tick (`.../off_scale`: the note of a label drawn off scale) |
@@ -61,8 +61,9 @@ timeline is selected. The confidence interval of the Allan deviation is the chi-
 that leads the curve at each tau (``fogcomp.allan.oadev_ci``: the five-term IEEE 952 model
 fitted to the curve picks the type), so the bars widen where bias instability or rate random
 walk dominate instead of keeping white noise's width. The PSD's
-interval is the chi-square interval with the Welch EDF of a Hann window at 50 % overlap
-(Percival and Walden 1993, eq. 292b).
+interval is the chi-square interval with each band's EDF: the Welch EDF of a Hann window at
+50 % overlap (Percival and Walden 1993, eq. 292b) times the ordinates the band holds, less
+their correlation (``fogcomp.metrics.band_edf``).
 
 Colours (``fogbench.palette``, shared with the PNG figures): the method's colour everywhere (raw
 grey, oracle cyan, one hue per method family -- the built-in method a label runs -- and the
@@ -127,7 +128,7 @@ from . import palette as PAL
 from .fmt import decimation, fmt, md_table, metrics_table
 from .views import DWARF, kept_alike, moving_mean
 
-__all__ = ["write_recording", "view", "blueprint_for", "ReplicatesError", "decimation", "psd_interval",
+__all__ = ["write_recording", "view", "blueprint_for", "ReplicatesError", "decimation",
            "MAX_SERIES_POINTS", "MAX_POSE_POINTS", "TIMELINE", "REPLICATE_TIMELINE",
            "APPLICATION_ID", "CONFIDENCE", "headline_metrics", "LOGLOG_MAX_DECADES",
            "LOGLOG_MAX_LABELS"]
@@ -174,43 +175,6 @@ def _p(*parts: str) -> str:
 def _tint(c, f: float) -> tuple:
     """``c`` blended towards white by the fraction ``f``."""
     return PAL._shade(c, f)
-
-
-# ---------------------------------------------------------------------------------------------
-# confidence intervals
-def psd_interval(n: int, nperseg: int, confidence: float = CONFIDENCE):
-    """Multiplicative chi-square interval of a Welch PSD (Hann window, 50 % overlap).
-
-    Parameters
-    ----------
-    n : int
-        Samples in the record.
-    nperseg : int
-        Samples per segment.
-    confidence : float
-        Two-sided confidence level.
-
-    Returns
-    -------
-    lo_factor, hi_factor, edf : float
-        The true PSD lies within ``[psd * lo_factor, psd * hi_factor]`` with the given
-        confidence; ``edf`` degrees of freedom.
-
-    Notes
-    -----
-    ``K = (n - nperseg) // (nperseg // 2) + 1`` segments; with a Hann window at 50 % overlap
-    adjacent segments are correlated by ``rho = 0.167`` (Welch 1967, Table 1), and
-    ``edf = 2 K / (1 + 2 sum_{j=1}^{K-1} (1 - j/K) rho_j^2)`` (Percival and Walden 1993,
-    eq. 292b), only ``rho_1`` being non-zero. Interval: ``edf psd / chi2(1 - a/2, edf)`` to
-    ``edf psd / chi2(a/2, edf)``.
-    """
-    from scipy.stats import chi2
-
-    step = max(nperseg // 2, 1)
-    k = max((n - nperseg) // step + 1, 1)
-    edf = 2.0 * k / (1.0 + 2.0 * (1.0 - 1.0 / k) * 0.167**2) if k > 1 else 2.0
-    a = 1.0 - confidence
-    return edf / chi2.ppf(1.0 - a / 2.0, edf), edf / chi2.ppf(a / 2.0, edf), edf
 
 
 # ---------------------------------------------------------------------------------------------
@@ -527,7 +491,6 @@ def _log_piece(w: _Writer, key: str, it, colors, in_sample: bool,
     k = decimation(p.t.size, MAX_SERIES_POINTS)
     s = slice(None, None, k)
     allan, psd = [], []
-    nper = 0
     # what every output keeps alike (a wander no method removes), taken out for the Overview's
     # error view as in the PNG time series (fogbench.views.kept_alike)
     errs = {lab: (out - p.truth) / DPH for lab, out in it.outputs.items()}
@@ -562,22 +525,23 @@ def _log_piece(w: _Writer, key: str, it, colors, in_sample: bool,
                                   ad.high[ok]))
         if p.raw.size >= 16:
             try:
-                f, pxx = M.psd(err - np.mean(err), p.fs)
-                nper = 2 * (f.size - 1)      # one-sided: nperseg // 2 + 1 frequencies
+                # as the PNGs: Welch averaged in log-spaced bands, each with its interval
+                f, pxx, edf = M.psd_bands(err, p.fs, per_decade=PAL.PSD_PER_DECADE)
+                low, high = M.psd_band_interval(pxx, edf, CONFIDENCE)
             except ValueError:
-                f = pxx = np.zeros(0)
+                f = pxx = low = high = np.zeros(0)
             ok = (f > 0) & np.isfinite(pxx) & (pxx > 0)
             if ok.sum() >= 2:
-                psd.append((lab, name, c, f[ok], pxx[ok], None, None))
+                psd.append((lab, name, c, f[ok], pxx[ok], low[ok], high[ok]))
     if allan:
         _loglog(w, _p("report", "allan", key, it.run), allan, "tau, s",
                 "Allan deviation of output - truth, deg/h",
                 f"bars: {100 * CONFIDENCE:.0f} % interval, EDF of the leading noise type")
     if psd:
-        lo_f, hi_f, edf = psd_interval(p.raw.size, nper)
         _loglog(w, _p("report", "psd", key, it.run), psd, "frequency, Hz",
                 "PSD of output - truth, (deg/h)^2/Hz",
-                f"{100 * CONFIDENCE:.0f} % interval x{lo_f:.2f} to x{hi_f:.2f}, EDF {edf:.0f}")
+                f"Welch in {PAL.PSD_PER_DECADE} bands a decade; bars: "
+                f"{100 * CONFIDENCE:.0f} % interval, EDF of each band")
     return k
 
 

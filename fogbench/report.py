@@ -410,44 +410,53 @@ def _psd_ylim(curves: dict[str, np.ndarray]) -> tuple[float, float]:
 
 
 def fig_psd(it, path: Path, plan=None):
-    """Welch PSD of each output's error against the truth (mean removed), (deg/h)^2/Hz, as in
-    the recording; a sweep as the envelope of its members' spectra with its default's line, at
-    most MAX_LINES lines a panel (raw and oracle in each)."""
+    """PSD of each output's error against the truth (mean removed), (deg/h)^2/Hz, averaged in
+    fogbench.palette.PSD_PER_DECADE log-spaced bands (fogcomp.metrics.psd_bands: Welch, Hann, 8 half-overlapping
+    segments), with each band's one-sigma chi-square interval from its EDF as a band around raw,
+    oracle and each method's (default) line; a sweep as the envelope of its members' spectra
+    with its default's line, at most MAX_LINES lines a panel (raw and oracle in each)."""
     p = it.piece
-    nper = min(p.raw.size, 1024)
     labels = list(it.outputs)
-    sty = _styles(labels, plan=plan)
-    curves = {}
+    sty = _styles(labels, markers=True, plan=plan)
+    curves, ints = {}, {}
     for lab, y in it.outputs.items():
         e = (y - p.truth) / DPH
-        f, s = M.psd(e - np.mean(e), p.fs, nperseg=nper)
-        curves[lab] = s[1:]
+        f, s, edf = M.psd_bands(e, p.fs, per_decade=PAL.PSD_PER_DECADE)
+        curves[lab] = s
+        ints[lab] = M.psd_band_interval(s, edf, ALLAN_CI)
     lo, hi = _psd_ylim(curves)
     fixed = [lab for lab in ("raw", "oracle") if lab in labels]
     panels = _chunks(_entries(labels, plan), MAX_LINES - len(fixed), plan)
-    fig, axes = plt.subplots(len(panels), 1, figsize=(8.8, 0.6 + 3.9 * len(panels)),
+    fig, axes = plt.subplots(len(panels), 1, figsize=(9.2, 0.8 + 3.9 * len(panels)),
                              sharex=True, sharey=True, squeeze=False)
     shown = {lab: np.where(s > 0, s, np.nan) for lab, s in curves.items()}
+
+    def band(ax, lab):
+        low, high = ints[lab]
+        ax.fill_between(f, np.maximum(low, lo), high, color=sty[lab]["color"], alpha=0.13,
+                        lw=0, zorder=1.0)
+
     for ax, chunk in zip(axes[:, 0], panels):
         ax.set_xscale("log")
         ax.set_yscale("log")
         for lab in fixed:
-            ax.plot(f[1:], shown[lab], **sty[lab], label=lab)
+            ax.plot(f, shown[lab], **sty[lab], label=lab)
+            band(ax, lab)
         for e in chunk:
             below = any(bool(np.any(curves[m] < lo)) for m in e["members"])
-            for ln in _draw_entry(ax, f[1:], shown, e, sty):
+            for ln in _draw_entry(ax, f, shown, e, sty):
                 if below:
                     ln.set_label(ln.get_label() + " (falls below the axis)")
+            band(ax, e["default"])
         ax.set_ylim(lo, hi)
         ax.set_ylabel(f"PSD of output - truth, {PAL.PSD_UNIT}", fontsize=9)
+        ax.grid(True, which="both", lw=0.3)
         ax.legend(**LEGEND)
     axes[-1, 0].set_xlabel("frequency, Hz")
-    from .recording import psd_interval
-
-    lo_f, hi_f, edf = psd_interval(p.raw.size, nper, ALLAN_CI)
-    axes[0, 0].set_title(f"{it.protocol} / {it.run}: PSD of the error (Welch, mean removed)\n"
-                         f"{100 * ALLAN_CI:.0f} % interval of every value: x{lo_f:.2f} to "
-                         f"x{hi_f:.2f} (chi-square, EDF {edf:.0f})", fontsize=9)
+    axes[0, 0].set_title(f"{it.protocol} / {it.run}: PSD of the error (Welch, 8 segments, mean "
+                         f"removed), averaged in {PAL.PSD_PER_DECADE} bands a decade\n"
+                         f"bands: {100 * ALLAN_CI:.0f} % interval (chi-square, EDF of each "
+                         "band: the Welch average's times the ordinates it holds)", fontsize=9)
     _save(fig, path)
 
 

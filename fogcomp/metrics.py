@@ -262,6 +262,100 @@ def psd(x, fs: float, nperseg: int | None = None) -> tuple[np.ndarray, np.ndarra
     return f, pxx
 
 
+#: correlation of two Welch (Hann window) PSD ordinates 1 and 2 frequency bins apart, for a
+#: spectrum flat across them: |rho_DFT|^2, where rho_DFT is the normalised Fourier coefficient of
+#: the squared Hann window w^2 = 3/8 - cos/2 + cos(2 .)/8 at lag 1 (-1/4 / 3/8 = -2/3) and lag 2
+#: (1/16 / 3/8 = 1/6) (Percival and Walden 1993, section 6.6, eq. 231 for the DFT covariance)
+HANN_BIN_CORR = (4.0 / 9.0, 1.0 / 36.0)
+
+
+def welch_edf(n: int, nperseg: int) -> float:
+    """Equivalent degrees of freedom of one ordinate of :func:`psd` (Hann, 50 % overlap):
+    ``K = (n - nperseg) // (nperseg // 2) + 1`` segments, adjacent ones correlated by 0.167
+    (Welch 1967, Table 1); ``2 K / (1 + 2 (1 - 1/K) 0.167^2)`` (Percival and Walden 1993,
+    eq. 292b)."""
+    step = max(nperseg // 2, 1)
+    k = max((n - nperseg) // step + 1, 1)
+    return 2.0 * k / (1.0 + 2.0 * (1.0 - 1.0 / k) * 0.167**2) if k > 1 else 2.0
+
+
+def band_edf(edf_one: float, m: int) -> float:
+    """EDF of the mean of ``m`` adjacent Welch ordinates of EDF ``edf_one``: the variance of the
+    mean is ``var / m^2 (m + 2 sum_j (m - j) rho_j)`` with rho_j = HANN_BIN_CORR."""
+    m = int(m)
+    if m < 1:
+        raise ValueError(f"m: expected at least 1 ordinate, got {m}")
+    c = m + sum(2.0 * max(m - j, 0) * r for j, r in enumerate(HANN_BIN_CORR, start=1))
+    return edf_one * m * m / c
+
+
+def psd_bands(x, fs: float, per_decade: int = 10, segments: int = 8):
+    """PSD averaged over log-spaced frequency bands, with each band's degrees of freedom.
+
+    A Welch PSD (:func:`psd`, Hann, 50 % overlap) on segments of the largest power of two not
+    above ``n / (segments / 2 + 0.5)`` samples (``segments`` half-overlapping segments, the
+    lowest frequency about ``segments / 2`` over the record length), its ordinates between DC
+    and Nyquist (both left out: 1 dof each) averaged in bands ``per_decade`` to a decade. At low
+    frequency a band holds one ordinate (EDF of the Welch average, about 1.9 ``segments``); at
+    high frequency many (EDF growing with their number, :func:`band_edf`): the spectrum reads
+    evenly on a log axis instead of a 1/f-dense scatter.
+
+    Parameters
+    ----------
+    x : array_like, shape (n,)
+        Signal (unit ``u`` gives ``u**2/Hz``); at least 16 samples.
+    fs : float
+        Sample rate, Hz.
+    per_decade : int
+        Bands per decade of frequency (edges at 10^(k / per_decade) times the lowest).
+    segments : int
+        Half-overlapping Welch segments over the record (at least 1).
+
+    Returns
+    -------
+    f : ndarray, shape (b,)
+        Each band's mean frequency, Hz.
+    pxx : ndarray, shape (b,)
+        Each band's mean PSD, ``u**2/Hz``.
+    edf : ndarray, shape (b,)
+        Each band's equivalent degrees of freedom; ``pxx * edf / chi2(edf)`` is the interval.
+    """
+    x = _signal("x", x, min_len=16)
+    fs = _positive("fs", fs)
+    if isinstance(per_decade, bool) or not isinstance(per_decade, (int, np.integer)) or \
+            per_decade < 1:
+        raise ValueError(f"per_decade: expected a positive integer, got {per_decade!r}")
+    if isinstance(segments, bool) or not isinstance(segments, (int, np.integer)) or segments < 1:
+        raise ValueError(f"segments: expected a positive integer, got {segments!r}")
+    n = x.shape[0]
+    nper = 2 ** math.floor(math.log2(n / (segments / 2.0 + 0.5)))
+    nper = int(min(max(nper, 16), n))
+    f, pxx = psd(x - np.mean(x), fs, nperseg=nper)
+    f, pxx = f[1:-1], pxx[1:-1]
+    edf_one = welch_edf(n, nper)
+    k = np.floor(per_decade * np.log10(f / f[0]) + 1e-9).astype(int)
+    out_f, out_p, out_e = [], [], []
+    for b in np.unique(k):
+        sel = k == b
+        out_f.append(float(np.mean(f[sel])))
+        out_p.append(float(np.mean(pxx[sel])))
+        out_e.append(band_edf(edf_one, int(np.count_nonzero(sel))))
+    return np.array(out_f), np.array(out_p), np.array(out_e)
+
+
+def psd_band_interval(pxx, edf, confidence: float = 0.6826894921370859):
+    """Two-sided chi-square interval of band PSD values ``pxx`` of ``edf`` degrees of freedom
+    (:func:`psd_bands`): ``(pxx edf / chi2(1 - a/2, edf), pxx edf / chi2(a/2, edf))``, ``a`` =
+    1 - confidence (Percival and Walden 1993, eq. 255a)."""
+    from scipy.stats import chi2
+
+    if not 0.0 < confidence < 1.0:
+        raise ValueError(f"confidence: expected a level in (0, 1), got {confidence!r}")
+    pxx, edf = np.asarray(pxx, dtype=float), np.asarray(edf, dtype=float)
+    a = 1.0 - confidence
+    return pxx * edf / chi2.ppf(1.0 - a / 2.0, edf), pxx * edf / chi2.ppf(a / 2.0, edf)
+
+
 # ---------------------------------------------------------------------------------------------
 # Against a reference
 def rmse(x, truth) -> float:

@@ -144,6 +144,57 @@ def test_psd_rejects_bad_nperseg(nperseg):
         psd(np.zeros(1000), 1.0, nperseg=nperseg)
 
 
+@pytest.mark.parametrize("kind", ["white", "ar1"])
+def test_band_averaged_psd_intervals_cover_the_true_spectrum_as_often_as_they_say(kind):
+    """The 68 % chi-square interval of each band of psd_bands, from its EDF, holds the true
+    spectrum in 68 % of bands over replicates: white noise (2 s^2 / fs) and an AR(1) process
+    x_k = 0.9 x_(k-1) + e_k (2 s^2 / fs / |1 - 0.9 exp(-2 pi i f / fs)|^2, a spectrum falling
+    25 dB to Nyquist), the true value averaged over the band's Welch frequencies as the estimate
+    is. Bands of one ordinate and bands of many are checked apart: the EDF of a band of m
+    Hann-windowed ordinates (band_edf) is what is under test."""
+    from scipy.signal import lfilter
+    from scipy.stats import chi2
+
+    from fogcomp.metrics import psd_bands
+
+    rng = np.random.default_rng(11)
+    fs, n, sigma, phi = 10.0, 6000, 0.3, 0.9
+    a = 0.15865525393145707
+    hits = {True: [0, 0], False: [0, 0]}
+    for _ in range(150):
+        e = rng.normal(0.0, sigma, n)
+        x = e if kind == "white" else lfilter([1.0], [1.0, -phi], e)
+        _, pxx, edf = psd_bands(x, fs)
+        # the Welch frequencies of each band, for the band's true mean
+        nper = 2 ** math.floor(math.log2(n / 4.5))
+        fw = np.arange(1, nper // 2) * fs / nper
+        k = np.floor(10 * np.log10(fw / fw[0]) + 1e-9).astype(int)
+        if kind == "white":
+            s_true = np.full(fw.size, 2.0 * sigma**2 / fs)
+        else:
+            s_true = 2.0 * sigma**2 / fs / np.abs(1.0 - phi * np.exp(-2j * np.pi * fw / fs))**2
+        true = np.array([s_true[k == b].mean() for b in np.unique(k)])
+        assert true.size == pxx.size
+        ok = (pxx * edf / chi2.ppf(1 - a, edf) <= true) & (true <= pxx * edf / chi2.ppf(a, edf))
+        many = edf > 1.5 * edf[0]
+        for flag in (True, False):
+            hits[flag][0] += int(np.count_nonzero(ok[many == flag]))
+            hits[flag][1] += int(np.count_nonzero(many == flag))
+    for flag, (h, t) in hits.items():
+        assert t > 500
+        assert abs(h / t - (1 - 2 * a)) < 0.04, (kind, "many" if flag else "one", h / t)
+
+
+def test_band_edf_of_one_ordinate_is_its_own_and_of_many_grows_as_independent_pairs():
+    from fogcomp.metrics import band_edf
+
+    assert band_edf(30.0, 1) == 30.0
+    # m ordinates with neighbour correlation 4/9 and 1/36: about m / 1.94 independent ones
+    assert band_edf(30.0, 1000) == pytest.approx(30.0 * 1000 / (1 + 8 / 9 + 1 / 18), rel=1e-2)
+    with pytest.raises(ValueError, match="m: expected at least 1"):
+        band_edf(30.0, 0)
+
+
 # ---------------------------------------------------------------------------------------------
 # Against truth
 @settings(max_examples=30, deadline=None)
@@ -299,3 +350,14 @@ def test_bad_fs_window_scale_factor_and_shapes():
         summary(np.zeros(4), 1.0, truth=np.zeros(3))
     with pytest.raises(ValueError, match=r"truth: non-finite"):
         integrated_angle_error(np.zeros(3), [0.0, float("inf"), 0.0], 1.0)
+
+
+@pytest.mark.parametrize("kw, msg", [({"per_decade": 0}, "per_decade: expected a positive"),
+                                     ({"segments": True}, "segments: expected a positive"),
+                                     ({"x": np.zeros(10)}, "x")])
+def test_psd_bands_refuses_bad_arguments_naming_them(kw, msg):
+    from fogcomp.metrics import psd_bands
+
+    args = {"x": np.zeros(1000), "fs": 1.0, **kw}
+    with pytest.raises(ValueError, match=msg):
+        psd_bands(**args)

@@ -1158,11 +1158,41 @@ def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_d
 
 # ---------------------------------------------------------------------------------------------
 # Monte Carlo: the distributions over replicates
+DIST_PANELS_A_ROW = 3      # replicates.png / starts.png: panels a row, more wrap
+
+
+def _collapse_sweeps(labels: list[str], data: list, plan):
+    """A sweep's members as one column: its default setting's values, labelled
+    ``<sweep> (<n> settings)``, with the members' medians for a range mark; other labels as
+    they are. Returns (labels, data, source labels, member medians or None)."""
+    entries = {m: e for e in _entries(labels, plan) for m in e["members"]}
+    by = dict(zip(labels, data))
+    out_l, out_d, src, ranges, done = [], [], [], [], set()
+    for lab in labels:
+        e = entries.get(lab)
+        if e is None or e["group"] is None:
+            out_l.append(lab)
+            out_d.append(by[lab])
+            src.append(lab)
+            ranges.append(None)
+            continue
+        if e["group"] in done:
+            continue
+        done.add(e["group"])
+        out_l.append(f"{e['group']}\n({len(e['members'])} settings)")
+        out_d.append(by[e["default"]])
+        src.append(e["default"])
+        ranges.append([float(np.median(by[m])) for m in e["members"] if by[m].size])
+    return out_l, out_d, src, ranges
+
+
 def _fig_distributions(res: ScenarioResult, mc: dict, path: Path, panel) -> bool:
-    """One panel per protocol whose key metric ``panel(prot, metric)`` has values: one column
-    per method, the values as jittered points over a box of their quartiles (log scale for
-    positive deg/h). ``panel`` returns (labels, values per label, title, extra(ax, i, label))
-    or None to leave the protocol out."""
+    """One panel per protocol whose key metric ``panel(prot, metric)`` has values, at most
+    DIST_PANELS_A_ROW a row: one column per method, the values as jittered points over a box of
+    their quartiles (log scale for positive deg/h); a sweep as one column, its default
+    setting's values with the range of its members' medians as a bar beside it. ``panel``
+    returns (labels, values per label, title, style, extra(ax, i, label)) or None to leave the
+    protocol out."""
     panels = []
     for prot in res.plan.protocols:
         metric = key_metric(mc, prot.name, res.plan)
@@ -1171,25 +1201,38 @@ def _fig_distributions(res: ScenarioResult, mc: dict, path: Path, panel) -> bool
             panels.append((prot, metric) + tuple(got))
     if not panels:
         return False
-    fig, axes = plt.subplots(1, len(panels), figsize=(4.2 * len(panels) + 1.5, 4.2),
-                             squeeze=False)
+    ncol = min(len(panels), DIST_PANELS_A_ROW)
+    nrow = -(-len(panels) // ncol)
+    widest = max(len(_collapse_sweeps(p[2], p[3], res.plan)[0]) for p in panels)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(ncol * max(3.6, 0.42 * widest + 1.2) + 0.6,
+                                                  4.3 * nrow), squeeze=False)
     rng = np.random.default_rng(0)  # horizontal jitter of the points only
-    for ax, (prot, metric, labels, data, title, style, extra) in zip(axes[0], panels):
-        ax.boxplot(data, positions=range(len(labels)), widths=0.5, showfliers=False,
+    for ax in axes.flat[len(panels):]:
+        ax.set_visible(False)
+    for ax, (prot, metric, labels, data, title, style, extra) in zip(axes.flat, panels):
+        shown, data, src, ranges = _collapse_sweeps(labels, data, res.plan)
+        ax.boxplot(data, positions=range(len(shown)), widths=0.5, showfliers=False,
                    medianprops={"color": "k"})
-        for i, (lab, d) in enumerate(zip(labels, data)):
+        for i, (lab, d) in enumerate(zip(src, data)):
             ax.plot(i + rng.uniform(-style["jitter"], style["jitter"], d.size), d, "o",
                     ms=style["ms"], alpha=style["alpha"],
                     color=_color(lab, labels, res.plan), zorder=3)
+            if ranges[i]:
+                ax.vlines(i + 0.36, min(ranges[i]), max(ranges[i]), color="0.25", lw=2.2,
+                          zorder=4, label="a sweep's members: range of their medians"
+                          if i == next(j for j, r in enumerate(ranges) if r) else None)
             if extra is not None:
                 extra(ax, i, lab)
-        ax.set_xticks(range(len(labels)), labels, rotation=30, ha="right")
-        ax.set_ylabel(metric)
+        ax.set_xticks(range(len(shown)), shown, rotation=35, ha="right", fontsize=8,
+                      rotation_mode="anchor")
+        ax.set_ylabel(metric, fontsize=9)
         flag = " (in-sample)" if prot.in_sample else ""
-        ax.set_title(f"{prot.name}{flag}: {title}", fontsize=10)
+        ax.set_title(f"{prot.name}{flag}: {title}", fontsize=9)
         if metric.endswith("_dph") and all(d.size and np.all(d > 0) for d in data):
             ax.set_yscale("log")
         ax.grid(alpha=0.3)
+        if any(ranges):
+            ax.legend(fontsize=7, loc="best")
     fig.tight_layout()
     _save(fig, path)
     return True

@@ -355,3 +355,37 @@ def test_thermal_png_shows_a_scored_run_not_the_fit_run():
     data["x"] = SimpleNamespace(run=SimpleNamespace(thermal=None))
     res.scored = [SimpleNamespace(protocol="p", run="x+test")]
     assert R.thermal_run(res) == "test"
+
+
+def test_replicate_distributions_show_a_sweep_once_and_wrap_panels_three_a_row(figs, tmp_path):
+    """paper000's 8 wavelet_band settings were 8 boxes with 8 long rotated labels; paper004's
+    6 protocols one 2925-px row. A sweep is one column (its default setting's values) with the
+    range of its members' medians beside it; 4 protocols make 2 rows of at most 3 panels."""
+    plan = _plan()
+    rng = np.random.default_rng(2)
+    labels = ["raw", "kalman", "wnn"] + SWEEP
+    vals = {lab: list(10.0 + i + rng.standard_normal(20)) for i, lab in enumerate(labels)}
+    prots = [SimpleNamespace(name=f"p{i}", in_sample=False) for i in range(4)]
+    plan.protocols = prots
+    plan.claims = []
+    mc = {"replicates": 20,
+          "series": {p.name: {"rmse_dph": vals} for p in prots},
+          "over_runs": {p.name: {lab: {"rmse_dph": {}} for lab in labels} for p in prots}}
+    res = SimpleNamespace(plan=plan)
+    assert R.fig_replicates(res, mc, tmp_path / "r.png")
+    fig = figs[-1]
+    shown = [ax for ax in fig.axes if ax.get_visible()]
+    assert len(shown) == 4
+    rows = sorted({round(ax.get_position().y0, 3) for ax in shown})
+    assert len(rows) == 2
+    for ax in shown:
+        ticks = [t.get_text() for t in ax.get_xticklabels()]
+        assert ticks == ["raw", "kalman", "wnn", "band\n(4 settings)"], ticks
+        # the members' medians' range, by hand
+        (bar,) = [c for c in ax.collections if c.get_label().startswith("a sweep's members")]
+        ys = bar.get_segments()[0][:, 1]
+        meds = [np.median(vals[m]) for m in SWEEP]
+        assert min(ys) == pytest.approx(min(meds)) and max(ys) == pytest.approx(max(meds))
+        # the sweep's column holds its default setting's values
+        pts = [ln for ln in ax.get_lines() if ln.get_marker() == "o"]
+        np.testing.assert_allclose(sorted(pts[3].get_ydata()), sorted(vals[DEFAULT]))

@@ -133,10 +133,14 @@ def collect(paths) -> list[dict]:
                 counts = np.bincount(ranks[:, j], minlength=len(methods) + 1)
                 mode = int(np.argmax(counts))
                 name = doc.get("scenario", d.name)
+                spec = (doc.get("methods") or {}).get(m) or {}
                 rows.append({
                     "scenario": name if d.name == name else f"{name} ({d.name})",
                     "run_dir": str(d),
                     "protocol": prot, "in_sample": in_sample,
+                    "ideal_of": doc.get("protocols", {}).get(prot, {}).get("ideal_of"),
+                    "group": spec.get("group"),
+                    "paper_setting": bool(spec.get("paper_setting")),
                     "metric": metric if metric.endswith("_pct") else
                     f"improvement of {metric} over raw, %",
                     "better": better, "method": m, "replicates": R,
@@ -167,7 +171,9 @@ def compare_markdown(rows: list[dict]) -> str:
          "estimate given the true noise model, where the true rate is constant) beside it, the "
          "method's most frequent rank among the methods and the share of replicates where it "
          "had that rank, and its failed replicates. In-sample: scored on the data it was "
-         "fitted on (a paper's protocol, flagged).", "",
+         "fitted on (a paper's protocol, flagged). The figure leaves the ideal-lab twins "
+         "(`<name>.ideal`) to this table and draws a sweep as its paper setting's row with the "
+         "range of its settings' means.", "",
          "![every method across scenarios](compare.png)", "",
          "| scenario | protocol | metric | method | improvement [95 % CI] | oracle | filter "
          "oracle | rank (P) | failed | in-sample |",
@@ -180,48 +186,102 @@ def compare_markdown(rows: list[dict]) -> str:
     return "\n".join(L) + "\n"
 
 
+def _figure_rows(rows: list[dict]) -> list[dict]:
+    """The rows the figure draws: ideal-lab twins (``<name>.ideal``, in the table and in each
+    report's "What the lab's references cost") left out; a sweep's members as one row, its
+    paper (default) setting's, with ``sweep`` the members' (min, max) mean and count."""
+    out, seen = [], {}
+    for r in rows:
+        if r.get("ideal_of"):
+            continue
+        g = r.get("group")
+        if not g:
+            out.append(dict(r))
+            continue
+        key = (r["scenario"], r["protocol"], g)
+        means = [x["value"]["mean"] for x in rows
+                 if (x["scenario"], x["protocol"], x.get("group")) == key
+                 and x["value"].get("mean") is not None]
+        if key not in seen:
+            seen[key] = len(out)
+            out.append({**r, "method": f"{g} ({len(means)} settings)",
+                        "sweep": (min(means), max(means)) if means else None})
+        if r.get("paper_setting"):
+            out[seen[key]].update({k: v for k, v in r.items() if k != "method"},
+                                  sweep=out[seen[key]]["sweep"])
+    return out
+
+
 def _figure(rows: list[dict], path: str) -> None:
+    """The methods' improvement over raw with its interval, a row each (ideal twins left
+    out, a sweep as one row with its members' range), a band per scenario; filled: held out,
+    hollow: in-sample; black tick: the oracle, grey: the filter oracle."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
 
     from .io import save_figure
 
+    rows = _figure_rows(rows)
     n = max(len(rows), 1)
-    fig, ax = plt.subplots(figsize=(9.0, 1.2 + 0.24 * n))
+    fig, ax = plt.subplots(figsize=(9.0, 1.6 + 0.2 * n))
     y = np.arange(len(rows))[::-1]
     labels = []
     last = None
+    color = "#1f4e79"
+    scenarios = list(dict.fromkeys(r["scenario"] for r in rows))
     for yi, r in zip(y, rows):
         v = r["value"]
         group = (r["scenario"], r["protocol"])
+        if scenarios.index(r["scenario"]) % 2 == 0:       # every other scenario shaded
+            ax.axhspan(yi - 0.5, yi + 0.5, color="0.93", lw=0, zorder=0)
         labels.append(f"{r['scenario']} / {r['protocol']}: {r['method']}" if group != last
                       else r["method"])
         last = group
+        face = "white" if r["in_sample"] else color
         if v.get("mean") is not None and v["mean"] < FLOOR_PCT:   # far worse than raw
-            ax.plot(FLOOR_PCT, yi, "<", color="C3" if r["in_sample"] else "C0", ms=5)
+            ax.plot(FLOOR_PCT, yi, "<", color=color, mfc=face, ms=5)
             ax.annotate(f"{v['mean']:.3g}", (FLOOR_PCT, yi), xytext=(6, 0),
                         textcoords="offset points", fontsize=6, va="center")
         elif v.get("mean") is not None:
             lo = v.get("ci_low") if v.get("ci_low") is not None else v["mean"]
             hi = v.get("ci_high") if v.get("ci_high") is not None else v["mean"]
             ax.errorbar(v["mean"], yi, xerr=[[v["mean"] - max(lo, FLOOR_PCT)],
-                                             [hi - v["mean"]]], fmt="o",
-                        color="C3" if r["in_sample"] else "C0", ms=4, capsize=2)
-        o = r.get("oracle_filter") or r.get("oracle")
-        if o and o.get("mean") is not None:
-            ax.plot(o["mean"], yi, "|", color="k", ms=9)
+                                             [hi - v["mean"]]], fmt="o", color=color,
+                        mfc=face, ms=4, capsize=2, zorder=3)
+        if r.get("sweep"):
+            a, b = r["sweep"]
+            ax.plot([max(a, FLOOR_PCT), b], [yi - 0.3, yi - 0.3], color="0.45", lw=2.0,
+                    solid_capstyle="butt", zorder=2)
+        for lab, c in (("oracle", "black"), ("oracle_filter", "0.55")):
+            o = r.get(lab)
+            if o and o.get("mean") is not None and o["mean"] >= FLOOR_PCT:
+                ax.plot(o["mean"], yi, "|", color=c, ms=9, mew=1.6, zorder=2.5)
         if r["failed"]:
             ax.annotate(f"{r['failed']} failed", (1.0, yi), xycoords=("axes fraction", "data"),
                         fontsize=6, ha="right", va="center", color="C1")
     ax.axvline(0.0, color="0.6", lw=0.8)
     left, right = ax.get_xlim()
     ax.set_xlim(max(left, FLOOR_PCT - 5.0), max(right, 5.0))
+    ax.set_ylim(-0.6, len(rows) - 0.4)
     ax.set_yticks(y)
     ax.set_yticklabels(labels, fontsize=6)
-    ax.set_xlabel("improvement over raw, % (headline metric); mean and 95 % CI over "
-                  "replicates; | oracle; red: in-sample")
-    ax.set_title("Every method across scenarios", fontsize=9)
+    ax.set_xlabel("improvement over raw, % (headline metric): mean and 95 % interval over "
+                  "replicates", fontsize=8)
+    handles = [Line2D([], [], marker="o", color=color, ls="", label="held out"),
+               Line2D([], [], marker="o", color=color, mfc="white", ls="",
+                      label="in-sample (fitted on what it is scored on)"),
+               Line2D([], [], marker="|", color="black", ls="", ms=9, mew=1.6,
+                      label="oracle (true deterministic terms removed)"),
+               Line2D([], [], marker="|", color="0.55", ls="", ms=9, mew=1.6,
+                      label="filter oracle (best given the true noise model)"),
+               Line2D([], [], color="0.45", lw=2.0,
+                      label="a sweep: its settings' means, min to max")]
+    ax.legend(handles=handles, fontsize=7, loc="lower center", bbox_to_anchor=(0.5, 1.0),
+              ncol=3, frameon=False)
+    ax.set_title("Every method across scenarios (ideal-lab twins and sweep settings: "
+                 "compare.md)", fontsize=9, pad=34)
     fig.tight_layout()
     save_figure(fig, path)
     plt.close(fig)

@@ -562,6 +562,10 @@ def _metrics_doc(sc, plan, data, scored, fits, wall) -> dict:
                         "settled_hold_fast_path_s": rd.truth.settled_fast_path_s}
                  for name, rd in data.items()},
         "protocols": prots,
+        # each method label: the built-in or plug-in method it runs, and the sweep it is a
+        # member of (its [[methods]] label) with whether it has the paper's (default) setting
+        "methods": {m.label: {"method": m.name, "group": m.group,
+                              "paper_setting": bool(m.paper_setting)} for m in plan.methods},
         "wall_time_s": wall,
         "versions": versions(),
         "units": "metric names end in their unit: _dps deg/s, _dph deg/h, _deg deg, _pct "

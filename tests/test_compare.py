@@ -74,3 +74,32 @@ def test_compare_cli_writes_its_three_files_and_refuses_foreign_ones(tmp_path):
     assert sorted(p.name for p in mine.iterdir()) == ["compare.md"]
     code, _, err = run_cli("compare", tmp_path / "nothing_here")
     assert code == 2 and "no such run directory" in err
+
+
+def test_the_figure_leaves_ideal_twins_to_the_table_and_draws_a_sweep_as_one_row(tmp_path):
+    """compare.png was 3182 px tall: every ideal-lab twin again and paper000's 8 wavelet_band
+    settings a row each. The table keeps every row; the figure draws the lab protocol only and
+    a sweep as its paper setting's row with its settings' range (min, max of their means)."""
+    from fogbench.compare import _figure_rows
+
+    d = tmp_path / "s"
+    d.mkdir()
+    series = {"improvement_rmse_pct": {"raw": [0, 0, 0], "k": [1.0, 2.0, 3.0],
+                                       "w.a": [5.0, 6.0, 7.0], "w.b": [9.0, 9.0, 9.0],
+                                       "w.c": [-1.0, 0.0, 1.0]}}
+    doc = {"scenario": "s",
+           "protocols": {"p": {"in_sample": False},
+                         "p.ideal": {"in_sample": False, "ideal_of": "p"}},
+           "methods": {"k": {"method": "kalman", "group": None, "paper_setting": False},
+                       **{f"w.{x}": {"method": "wavelet_soft", "group": "w",
+                                     "paper_setting": x == "b"} for x in "abc"}},
+           "montecarlo": {"series": {"p": series, "p.ideal": series}, "claims": []}}
+    (d / "metrics.json").write_text(json.dumps(doc))
+    rows = collect([d])
+    assert len(rows) == 8                                # the table: 4 methods x 2 protocols
+    fig_rows = _figure_rows(rows)
+    assert [(r["protocol"], r["method"]) for r in fig_rows] == [
+        ("p", "k"), ("p", "w (3 settings)")]
+    sweep = fig_rows[1]
+    assert sweep["value"]["mean"] == pytest.approx(9.0)  # the paper setting w.b's
+    assert sweep["sweep"] == (pytest.approx(0.0), pytest.approx(9.0))

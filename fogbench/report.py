@@ -360,37 +360,82 @@ def fig_timeseries(it, path: Path, plan=None) -> int:
     return step
 
 
+DWELL_BARS_MAX = 40      # dwells: above this many, means as lines without error bars
+
+
 def fig_dwells(it, path: Path, plan=None) -> None:
-    """A multi-position test: per-dwell means in deg/h with the standard error of each mean."""
+    """A multi-position test, per dwell in time order, deg/h: the raw dwell means over the true
+    rate (the positions); raw's and the oracle's dwell-mean error; then the methods'
+    dwell-mean errors zoomed to them (the oracle beside them unless it dwarfs them), at most
+    TS_METHOD_LINES methods a panel, whole families together. Up to DWELL_BARS_MAX dwells
+    each mean has its standard error as a bar, beyond that the means are joined by lines."""
     p = it.piece
     labels = list(it.outputs)
+    entries = _entries(labels, plan)
+    methods = [m for e in entries for m in e["members"]]
     sty = _styles(labels, widest=1.6, thinnest=0.8, dashed_raw=False, plan=plan)
-    fig, axes = plt.subplots(2, 1, figsize=(10, 6.5), sharex=True)
     _, truth_mean, _ = dwell_means(p.t, p.truth, p.fs)
     k = truth_mean.size
     x = np.arange(1, k + 1)
-    width = 0.7 / max(1, len(labels))
-    for i, lab in enumerate(labels):
-        _, mean, sem = dwell_means(p.t, it.outputs[lab], p.fs)
-        _, emean, esem = dwell_means(p.t, it.outputs[lab] - p.truth, p.fs)
-        dx = (i - (len(labels) - 1) / 2) * width
-        kw = dict(color=sty[lab]["color"], zorder=sty[lab]["zorder"], ms=4, capsize=2,
-                  elinewidth=0.8, ls="none",
+    bars = k <= DWELL_BARS_MAX
+    err, sem, mean, mean_sem = {}, {}, {}, {}
+    for lab in labels:
+        _, mean[lab], mean_sem[lab] = dwell_means(p.t, it.outputs[lab], p.fs)
+        _, e, se = dwell_means(p.t, it.outputs[lab] - p.truth, p.fs)
+        err[lab], sem[lab] = e / DPH, se / DPH
+    lo, hi = _span([err[m] for m in methods])
+    oracle_in = "oracle" in err and bool(methods) and \
+        max(_span([err["oracle"]])[1], hi) - min(_span([err["oracle"]])[0], lo) \
+        <= DWARF * max(hi - lo, 1e-300)
+    panels = _chunks(entries, TS_METHOD_LINES, plan) if methods else []
+    n_ax = 2 + len(panels)
+    fig, axes = plt.subplots(n_ax, 1, figsize=(10.5, 1.2 + 2.4 * n_ax), sharex=True,
+                             squeeze=False)
+    axes = list(axes[:, 0])
+
+    def draw(ax, lab, y, se, dx=0.0):
+        kw = dict(color=sty[lab]["color"], zorder=sty[lab]["zorder"],
                   marker={"raw": "D", "oracle": "s"}.get(lab, "o"),
-                  mfc="none" if lab == "raw" else sty[lab]["color"])
-        if lab != "oracle":
-            axes[0].errorbar(x + dx, mean / DPH, yerr=sem / DPH, label=lab, **kw)
-        axes[1].errorbar(x + dx, emean / DPH, yerr=esem / DPH, label=lab, **kw)
-    axes[0].plot(x, truth_mean / DPH, "_", color=COLORS["truth"], ms=18, mew=2, label="truth",
-                 zorder=10)
-    axes[0].set_ylabel("dwell mean rate, deg/h")
-    axes[0].set_title(f"{it.protocol} / {it.run}: mean of each static dwell "
-                      f"({k} dwells, bars: standard error of the mean)")
-    axes[0].legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
-    axes[1].axhline(0.0, color="0.7", lw=0.5)
-    axes[1].set_ylabel("dwell mean error vs truth, deg/h")
-    axes[1].set_xlabel("dwell (position) number, in time order")
-    axes[1].legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
+                  mfc="none" if lab == "raw" else sty[lab]["color"], label=lab)
+        if bars:
+            ax.errorbar(x + dx, y, yerr=se, ms=4, capsize=2, elinewidth=0.8, ls="none", **kw)
+        else:
+            ax.plot(x, y, ms=2.5, lw=0.8, alpha=0.9, **kw)
+
+    ax = axes[0]
+    ax.plot(x, truth_mean / DPH, "_", color=COLORS["truth"], ms=max(4, min(18, 500 // k)),
+            mew=2, label="truth", zorder=10)
+    if "raw" in mean:
+        draw(ax, "raw", mean["raw"] / DPH, mean_sem["raw"] / DPH)
+    ax.set_ylabel("dwell mean rate,\ndeg/h", fontsize=9)
+    ax.set_title(f"{it.protocol} / {it.run}: each static dwell's mean ({k} dwells; "
+                 + ("bars: standard error of the mean)" if bars else
+                    f"more than {DWELL_BARS_MAX}: means joined, no bars)"), fontsize=10)
+    ax.legend(**LEGEND)
+    ax = axes[1]
+    refs = [lab for lab in ("raw", "oracle") if lab in err]
+    width = 0.3 if bars else 0.0
+    for i, lab in enumerate(refs):
+        draw(ax, lab, err[lab], sem[lab], (i - (len(refs) - 1) / 2) * width)
+    ax.axhline(0.0, color="0.7", lw=0.5)
+    ax.set_ylabel("dwell mean error,\ndeg/h", fontsize=9)
+    ax.legend(**LEGEND)
+    pad = 0.08 * max(hi - lo, 1e-12)
+    for ax, chunk in zip(axes[2:], panels):
+        shown = (["oracle"] if oracle_in else []) + [m for e in chunk for m in e["members"]]
+        width = 0.7 / max(1, len(shown)) if bars else 0.0
+        for i, lab in enumerate(shown):
+            draw(ax, lab, err[lab], sem[lab], (i - (len(shown) - 1) / 2) * width)
+        ax.axhline(0.0, color="0.7", lw=0.5)
+        ax.set_ylim(min(lo, err["oracle"].min() if oracle_in else lo) - pad,
+                    max(hi, err["oracle"].max() if oracle_in else hi) + pad)
+        ax.set_ylabel("dwell mean error,\ndeg/h", fontsize=9)
+        ax.legend(**LEGEND)
+    if len(axes) > 2:
+        axes[2].set_title("methods' dwell-mean error, zoomed to them"
+                          + ("" if oracle_in or "oracle" not in err else
+                             " (the oracle, above, is off this scale)"), fontsize=9)
+    axes[-1].set_xlabel("dwell (position) number, in time order")
     _save(fig, path)
 
 

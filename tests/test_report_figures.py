@@ -194,11 +194,14 @@ def test_multi_position_pieces_are_plotted_as_dwell_means_in_deg_per_h(figs, tmp
     it, fs = _dwell_item()
     R.fig_timeseries(it, tmp_path / "t.png")
     fig = figs[-1]
-    err_ax = fig.axes[1]
-    assert "deg/h" in err_ax.get_ylabel() and "deg/h" in fig.axes[0].get_ylabel()
-    conts = {c.get_label(): c for c in err_ax.containers if isinstance(c, ErrorbarContainer)}
-    assert set(conts) == {"raw", "oracle", "flnn"}
-    for lab, c in conts.items():
+    assert all("deg/h" in ax.get_ylabel() for ax in fig.axes)
+    # below the positions: raw and oracle's dwell-mean errors, then the methods' zoomed to them
+    conts = [(ax, c) for ax in fig.axes[1:] for c in ax.containers
+             if isinstance(c, ErrorbarContainer)]
+    assert {c.get_label() for _, c in conts} == {"raw", "oracle", "flnn"}
+    assert {c.get_label() for c in fig.axes[1].containers} == {"raw", "oracle"}
+    for ax, c in conts:
+        lab = c.get_label()
         _, tmean, tsem = _dwell_twin(list(it.piece.t), list(it.outputs[lab] - it.piece.truth),
                                      fs)
         data_line = c.lines[0]
@@ -207,11 +210,32 @@ def test_multi_position_pieces_are_plotted_as_dwell_means_in_deg_per_h(figs, tmp
         segs = c.lines[2][0].get_segments()
         half = np.array([abs(s[1][1] - s[0][1]) / 2 for s in segs])
         np.testing.assert_allclose(half, tsem / DPH, rtol=1e-9)
+        if lab == "flnn":
+            # zoomed to the methods: raw's 4 deg/h offset is off this panel's scale
+            lo, hi = ax.get_ylim()
+            assert lo <= tmean.min() / DPH and tmean.max() / DPH <= hi
+            assert hi < 4.0
     # no line joins one dwell to the next: nothing in the figure is a per-sample trace
     for ax in fig.axes:
         for ln in ax.get_lines():
             assert len(ln.get_xdata()) <= 5
     assert _plotted_labels(fig) <= _legend_texts(fig)
+
+
+def test_many_dwells_are_joined_lines_without_bars(figs, tmp_path, monkeypatch):
+    """thermal_with_motion drew 133 dwells x 6 outputs of error bars; above DWELL_BARS_MAX
+    dwells each output's dwell means are one line (its values the means, by the slow twin)."""
+    it, fs = _dwell_item()
+    monkeypatch.setattr(R, "DWELL_BARS_MAX", 3)         # 5 dwells: more than 3
+    R.fig_timeseries(it, tmp_path / "t.png")
+    fig = figs[-1]
+    assert not any(isinstance(c, ErrorbarContainer) for ax in fig.axes for c in ax.containers)
+    for lab in ("raw", "oracle", "flnn"):
+        _, tmean, _ = _dwell_twin(list(it.piece.t), list(it.outputs[lab] - it.piece.truth), fs)
+        lines = [ln for ax in fig.axes[1:] for ln in ax.get_lines() if ln.get_label() == lab]
+        assert lines
+        for ln in lines:
+            np.testing.assert_allclose(ln.get_ydata(), tmean / DPH, rtol=1e-9)
 
 
 def _thermal_res():

@@ -4,6 +4,7 @@ the sentence that says where it holds (``fogbench.maps``)."""
 from __future__ import annotations
 
 import math
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -97,8 +98,8 @@ def fig_map(map_doc: dict, k: int, path: Path) -> bool:
         pad = 0.1 * (max(ys) - min(ys) + 1.0)
         ax.set_ylim(min(ys) - pad, max(ys) + pad)
         ax.set_xlim(-0.6, len(pts) - 0.4)
-        ax.set_ylabel(f"improvement of {c['better']} over {c['than']}, % ({c['metric']})",
-                      fontsize=8)
+        ax.set_ylabel(textwrap.fill(f"improvement of {c['better']} over {c['than']}, % "
+                                    f"({c['metric']})", 42), fontsize=8)
         handles = [plt.Line2D([], [], marker="o", ls="none", color=col, label=v)
                    for v, col in LEGEND]
         handles.append(plt.Line2D([], [], marker="_", ms=12, mew=2, ls="none", color="0.45",
@@ -132,7 +133,11 @@ def fig_map(map_doc: dict, k: int, path: Path) -> bool:
         handles = [plt.Line2D([], [], marker="s", ls="none", color=col, label=v)
                    for v, col in LEGEND]
         ax.legend(handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
-    ax.set_title(f"{c['text']} ({c['protocol']}): {_claimed(c)}", fontsize=9)
+    # wrapped to the figure's width (paper000's claims ran off both sides, into the y label)
+    width_in = fig.get_size_inches()[0]
+    ax.set_title(textwrap.fill(f"{c['text']} ({c['protocol']}): {_claimed(c)}",
+                               max(40, int(width_in * 11))), fontsize=9)
+    fig.tight_layout()
     _save(fig, path)
     return True
 

@@ -358,3 +358,40 @@ def test_the_two_way_centrifuge_recovers_the_coefficients_despite_misalignment(t
     # the fit's own stderr cannot see the leak: one way it stays near the noise-only value
     # while the errors are far outside it
     assert one["coef_z_rms"] > 10.0
+
+
+def test_a_map_figure_s_long_claim_and_label_stay_inside_it_apart(tmp_path, monkeypatch):
+    """paper000's map__6 ran a 150-character claim off both sides of the figure and into a
+    one-line y label: the title and the label are wrapped and laid out inside, not overlapping."""
+    import matplotlib.pyplot as plt
+
+    from fogbench import map_report as MR
+
+    from fogbench import io as IO
+
+    kept = []
+    monkeypatch.setattr(IO, "save_figure", lambda fig, path: kept.append(fig))
+    pt = {"verdict": "agrees", "mean": 61.0, "ci_low": 57.0, "ci_high": 65.0, "n": 20,
+          "held": 0.9, "oracle_mean": 100.0, "oracle_ci_low": 100.0, "oracle_ci_high": 100.0,
+          "oracle_bounds": True, "oracle": "oracle_filter", "side": None}
+    claim = {"text": "the WNN compensates far better than the Kalman filter (Table 1: 85 % lower "
+                     "std); against the datasheet-tuned Kalman; WNN with fit-record "
+                     "normalisation", "protocol": "held_out", "in_sample": False,
+             "metric": "std_dps", "better": "wnn_fitnorm", "than": "kalman_datasheet",
+             "min_pct": 50.0, "max_pct": None, "points": [pt, pt, pt]}
+    doc = {"axes": [{"name": "source of the 0.13 deg/s", "labels": ["a", "b", "c"],
+                     "numeric": None}],
+           "points": [{"index": [i], "labels": [x], "label": x, "base": i == 0}
+                      for i, x in enumerate("abc")],
+           "claims": [claim], "replicates_per_point": 20}
+    assert MR.fig_map(doc, 0, tmp_path / "m.png")
+    fig = kept[-1]
+    fig.canvas.draw()
+    r = fig.canvas.get_renderer()
+    ax = fig.axes[0]
+    title, ylab = ax.title.get_window_extent(r), ax.yaxis.label.get_window_extent(r)
+    box = fig.bbox
+    for what, bb in (("title", title), ("y label", ylab)):
+        assert box.x0 <= bb.x0 and bb.x1 <= box.x1 and bb.y1 <= box.y1, what
+    assert not title.overlaps(ylab)
+    plt.close(fig)

@@ -10,8 +10,9 @@ no near-white):
   ``kalman_datasheet`` red, every ``wavelet_band`` setting orange. The built-in families have
   fixed hues (:data:`FAMILY_HUES`: ``kalman`` is red in every scenario); other families (plugins)
   take the free hues of :data:`EXTRA_HUES` in their order in the scenario.
-- The members of a family differ in shade (darker, lighter: :data:`SHADES`; a light hue only
-  darker, :data:`SHADES_LIGHT`) and, in the PNGs,
+- The members of a family differ in shade (darker, lighter: :data:`SHADES`; a light hue, or
+  one whose lighter shade nears raw or the oracle, only darker, :data:`SHADES_LIGHT`) and, in
+  the PNGs,
   in line style (:data:`DASHES`); the viewer has no dashed series, so there the shade alone
   tells them apart.
 - An in-sample protocol, drawn beside a held-out one in the viewer, is a lighter tint of the
@@ -31,7 +32,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 __all__ = ["RAW", "ORACLE", "TRUTH", "FAMILY_HUES", "EXTRA_HUES", "SHADES", "SHADES_LIGHT",
-           "DASHES", "Style", "lightness", "styles", "plan_styles", "rgb", "mpl", "in_sample", "ERROR_UNIT", "RATE_UNIT",
+           "DASHES", "Style", "lightness", "delta_e", "styles", "plan_styles", "rgb", "mpl", "in_sample", "ERROR_UNIT", "RATE_UNIT",
            "PSD_UNIT", "HOURS_ABOVE_S", "time_unit", "MIN_SPAN", "min_span",
            "ALLAN_MIN_CLUSTERS", "allan_drawn"]
 
@@ -48,7 +49,7 @@ FAMILY_HUES = {
     "poly_temp": (140, 86, 75),     # brown
     "bp": (227, 119, 194),          # pink
     "aco_bp": (188, 189, 34),       # olive
-    "flnn": (0, 128, 128),          # teal
+    "flnn": (0, 110, 50),           # dark green (teal lightened was nearly the oracle's cyan)
     "flnn_lstsq": (230, 171, 2),    # gold
 }
 #: Hues for other families (plugins), taken in order where not already used in the scenario.
@@ -59,9 +60,12 @@ EXTRA_HUES = [(160, 40, 160), (110, 110, 230), (150, 120, 0), (250, 150, 140),
 #: white (> 0).
 SHADES = (0.0, -0.3, 0.3, -0.5, 0.45)
 #: The shades of a light hue (CIE L* above :data:`LIGHT_HUE_L`: orange, pink, olive, gold):
-#: lightened, its members fade on a white page (olive +0.3 is L* 82), so they only darken.
-SHADES_LIGHT = (0.0, -0.12, -0.25, -0.42, -0.6)
+#: lightened, its members fade on a white page (olive +0.3 is L* 82), so they only darken; so
+#: does a hue whose lighter shade is near raw or the oracle (:func:`_darken_only`). Steps far
+#: enough apart that neighbours differ by CIE76 > 15 (paper002's aco_bp_lm and aco_bp_gd were 11).
+SHADES_LIGHT = (0.0, -0.25, -0.45, -0.6, -0.72)
 LIGHT_HUE_L = 60.0
+NEAR_REFERENCE = 15.0    # CIE76: a member this close to raw or the oracle is confused with it
 #: Line style of the k-th member of a family in the PNGs (matplotlib dash patterns).
 DASHES = ("-", (0, (5, 2)), (0, (5, 2, 1, 2)), (0, (1, 1.5)))
 IN_SAMPLE_TINT = 0.3
@@ -85,13 +89,41 @@ def _shade(c, f: float) -> tuple:
     return tuple(int(round(x + (target - x) * f)) for x in c[:3])
 
 
+def _lab(c) -> tuple[float, float, float]:
+    """CIE L*a*b* (D65) of an 8-bit sRGB colour: IEC 61966-2-1 linearisation, its XYZ matrix,
+    CIE 15 (2004) eq. 8.3-8.5."""
+    lin = [v / 12.92 if v <= 0.04045 else ((v + 0.055) / 1.055) ** 2.4
+           for v in (x / 255.0 for x in c[:3])]
+    x = (0.4124 * lin[0] + 0.3576 * lin[1] + 0.1805 * lin[2]) / 0.95047
+    y = 0.2126 * lin[0] + 0.7152 * lin[1] + 0.0722 * lin[2]
+    z = (0.0193 * lin[0] + 0.1192 * lin[1] + 0.9505 * lin[2]) / 1.08883
+
+    def f(t):
+        return t ** (1.0 / 3.0) if t > (6.0 / 29.0) ** 3 else t * (29.0 / 6.0) ** 2 / 3.0 \
+            + 4.0 / 29.0
+
+    return 116.0 * f(y) - 16.0, 500.0 * (f(x) - f(y)), 200.0 * (f(y) - f(z))
+
+
 def lightness(c) -> float:
     """CIE L* (0 black .. 100 white) of an 8-bit sRGB colour (IEC 61966-2-1 linearisation,
     CIE 15 lightness of the luminance Y)."""
-    lin = [v / 12.92 if v <= 0.04045 else ((v + 0.055) / 1.055) ** 2.4
-           for v in (x / 255.0 for x in c[:3])]
-    y = 0.2126 * lin[0] + 0.7152 * lin[1] + 0.0722 * lin[2]
-    return 116.0 * y ** (1.0 / 3.0) - 16.0 if y > (6.0 / 29.0) ** 3 else y * (29.0 / 3.0) ** 3
+    return _lab(c)[0]
+
+
+def delta_e(c1, c2) -> float:
+    """CIE76 colour difference of two 8-bit sRGB colours (Euclidean in L*a*b*)."""
+    return sum((a - b) ** 2 for a, b in zip(_lab(c1), _lab(c2))) ** 0.5
+
+
+def _darken_only(hue) -> bool:
+    """A family whose members only darken (:data:`SHADES_LIGHT`): a light hue (its lighter
+    shades fade on the page), or one whose lighter shade comes within NEAR_REFERENCE (CIE76)
+    of raw's grey or the oracle's cyan (a teal lightened is nearly the oracle: flnn's hue was
+    teal until its third member, flnn_dwell_means, read as the oracle)."""
+    return lightness(hue) > LIGHT_HUE_L or any(
+        delta_e(_shade(hue, f), ref) < NEAR_REFERENCE for f in SHADES if f > 0
+        for ref in (RAW, ORACLE))
 
 
 def styles(methods) -> dict[str, Style]:
@@ -126,7 +158,7 @@ def styles(methods) -> dict[str, Style]:
             continue
         k = count.get(fam, 0)
         count[fam] = k + 1
-        shades = SHADES_LIGHT if lightness(hue[fam]) > LIGHT_HUE_L else SHADES
+        shades = SHADES_LIGHT if _darken_only(hue[fam]) else SHADES
         out[lab] = Style(_shade(hue[fam], shades[k % len(shades)]), DASHES[k % len(DASHES)],
                          fam, k)
     return out

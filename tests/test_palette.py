@@ -268,3 +268,23 @@ def test_the_viewer_temperature_axis_spans_at_least_one_degree():
     assert hi - lo >= 1.0 - 1e-12 and lo <= 20.0 and hi >= 20.0625
     w = SimpleNamespace(ranges={"/a": (20.0, 45.0)})       # a real thermal program: autoscaled
     assert REC._y_axis(w, ["/a"], unit="deg C") is None
+
+
+def test_no_member_of_any_family_passes_for_raw_or_the_oracle():
+    """paper004's flnn_dwell_means (teal lightened, CIE76 14.9 from the oracle's cyan) read as the
+    oracle. Every member of every built-in and plug-in family, five members each, stays more than
+    15 from raw's grey and the oracle's cyan (CIE76 by hand here), and a family's first three
+    members differ from each other by more than 14 (paper002's olive aco_bp pair was 10.8)."""
+    fams = list(PAL.FAMILY_HUES) + [f"plugin{i}" for i in range(len(PAL.EXTRA_HUES))]
+    for fam in fams:
+        st = PAL.styles([(f"m{k}", fam) for k in range(5)])
+        cols = [st[f"m{k}"].color for k in range(5)]
+        for c in cols:
+            assert _delta_e(c, PAL.RAW) > 15.0 and _delta_e(c, PAL.ORACLE) > 15.0, (fam, c)
+        for a, b in itertools.combinations(cols[:3], 2):
+            assert _delta_e(a, b) > 14.0, (fam, a, b)
+    # a teal (a plug-in's colour could be one) only darkens: lightened it is the oracle's cyan
+    assert _delta_e(PAL._shade((0, 128, 128), 0.3), PAL.ORACLE) < 15.0
+    assert PAL._darken_only((0, 128, 128))
+    assert PAL.delta_e((255, 0, 0), (0, 0, 255)) == pytest.approx(_delta_e((255, 0, 0),
+                                                                           (0, 0, 255)))

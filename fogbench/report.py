@@ -259,6 +259,30 @@ def _span(curves) -> tuple[float, float]:
     return min(float(v.min()) for v in vals), max(float(v.max()) for v in vals)
 
 
+def _dwarfing_entries(entries: list[dict], cur: dict) -> list[dict]:
+    """The entries (methods, sweeps) whose errors dwarf the rest's: the fewest widest entries
+    whose removal leaves the span of all more than DWARF times the span of those left (a family
+    of filters that lag together, kalman and kalman_rts, goes out together), each of them
+    spanning more than twice what is left; at least one entry is always left, none goes out
+    when no such set exists."""
+    def span(es):
+        a, b = _span([cur[m] for e in es for m in e["members"]])
+        return b - a
+
+    if len(entries) < 2:
+        return []
+    whole = span(entries)
+    order = sorted(entries, key=lambda e: span([e]), reverse=True)
+    for k in range(1, len(order)):
+        rest = max(span(order[k:]), 1e-300)
+        # and a gap: each entry taken out spans at least twice what is left (else, with
+        # entries of similar sizes, the last one alone would always be "dwarfed")
+        if whole > DWARF * rest and span([order[k - 1]]) > 2.0 * rest \
+                and rest > 1e-6 * whole:    # (a numerically constant rest: nothing to zoom to)
+            return order[:k]
+    return []
+
+
 def fig_timeseries(it, path: Path, plan=None) -> int:
     """The error of every output against the truth (deg/h) where the methods differ, against
     the time since power-on (s, or h past fogbench.palette.HOURS_ABOVE_S).
@@ -289,6 +313,12 @@ def fig_timeseries(it, path: Path, plan=None) -> int:
     (t, truth, raw_out, *dec), step = _decimate(p.t / ts, p.truth, p.raw,
                                                 *[shown[lab] for lab in labels])
     cur = dict(zip(labels, dec))
+    # a method whose error dwarfs the others' (dynamic_rates' Kalman filters smoothing away a
+    # 5 Hz sine: +-5000 deg/h against the denoisers' +-300) gets panels of its own, so that
+    # the zoom holds the rest
+    loud = _dwarfing_entries(entries, cur)
+    quiet = [e for e in entries if e not in loud]
+    methods = [m for e in quiet for m in e["members"]]
     lo, hi = _span([cur[m] for m in methods])
     width = hi - lo
 
@@ -301,7 +331,9 @@ def fig_timeseries(it, path: Path, plan=None) -> int:
     lo, hi = _span([cur[m] for m in methods + fixed])   # the zoom: methods, and raw/oracle
     width = hi - lo                                      # where they do not dwarf them
     ref_panel = bool(big) or kind is not None
-    panels = _chunks(entries, min(TS_METHOD_LINES, MAX_LINES - len(fixed)), plan)
+    cap = min(TS_METHOD_LINES, MAX_LINES - len(fixed))
+    panels = [(c, False) for c in _chunks(quiet, cap, plan)] + \
+        ([(c, True) for c in _chunks(loud, cap, plan)] if loud else [])
     n_ax = 1 + int(ref_panel) + len(panels)
     fig, axes = plt.subplots(n_ax, 1, figsize=(10.5, 2.1 + 2.3 * (n_ax - 1)), sharex=True,
                              squeeze=False)
@@ -339,13 +371,19 @@ def fig_timeseries(it, path: Path, plan=None) -> int:
                      "method removes it",
             "fast": f"; {k}-sample ({dt:.3g} s) moving means: every method keeps raw's faster "
                     "noise"}.get(kind, "")
-    for i, chunk in enumerate(panels):
+    for i, (chunk, is_loud) in enumerate(panels):
         ax = axes[i]
         for lab in fixed:
             ax.plot(t, cur[lab], label=lab, alpha=0.85, **sty[lab])
         for e in chunk:
             _draw_entry(ax, t, cur, e, sty, alpha=0.9)
-        if methods:
+        if is_loud:
+            a, b = _span([cur[m] for e in chunk for m in e["members"]] +
+                         [cur[lab] for lab in fixed])
+            ax.set_ylim(a - 0.05 * (b - a), b + 0.05 * (b - a))
+            ax.set_title("off the scale above: " + ", ".join(
+                m for e in chunk for m in e["members"]), fontsize=9)
+        elif methods:
             ax.set_ylim(lo - pad, hi + pad)
         _min_span(ax, PAL.ERROR_UNIT)
         # two lines: "error, 10-sample mean, deg/h" on one ran into the next panel's label

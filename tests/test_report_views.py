@@ -389,3 +389,35 @@ def test_replicate_distributions_show_a_sweep_once_and_wrap_panels_three_a_row(f
         # the sweep's column holds its default setting's values
         pts = [ln for ln in ax.get_lines() if ln.get_marker() == "o"]
         np.testing.assert_allclose(sorted(pts[3].get_ydata()), sorted(vals[DEFAULT]))
+
+
+def test_methods_whose_errors_dwarf_the_others_get_their_own_panel(figs, tmp_path):
+    """dynamic_rates' sine_5hz: the two Kalman filters lag the sine by +-5000 deg/h, the
+    denoisers' errors are +-300: in one zoom the denoisers were a flat line. The two lagging
+    methods (together: neither alone is 3x the rest) go to a panel of their own, the rest
+    keep the zoom."""
+    rng = np.random.default_rng(4)
+    n, fs = 2000, 100.0
+    t = np.arange(n) / fs
+    truth = np.full(n, 0.01)
+    outs = {"raw": truth + rng.standard_normal(n) * 300.0 * DPH}
+    outs["oracle"] = outs["raw"].copy()
+    outs["kalman"] = truth + 5000.0 * np.sin(2 * np.pi * 5 * t) * DPH
+    outs["kalman_rts"] = truth + 3000.0 * np.sin(2 * np.pi * 5 * t) * DPH
+    outs["wnn"] = truth + rng.standard_normal(n) * 200.0 * DPH
+    plan = SimpleNamespace(methods=(_spec("kalman", "kalman"), _spec("kalman_rts", "kalman"),
+                                    _spec("wnn", "wnn")))
+    R.fig_timeseries(_item(outs, truth, fs), tmp_path / "t.png", plan=plan)
+    fig = figs[-1]
+
+    def panel_of(lab):
+        (ax,) = [ax for ax in fig.axes[1:] if lab in [ln.get_label() for ln in ax.get_lines()]]
+        return ax
+
+    quiet, loud = panel_of("wnn"), panel_of("kalman")
+    assert loud is panel_of("kalman_rts") and loud is not quiet
+    lo, hi = quiet.get_ylim()
+    w = (outs["wnn"] - truth) / DPH
+    assert lo <= w.min() and w.max() <= hi and hi - lo < 3000.0
+    lo, hi = loud.get_ylim()
+    assert lo <= -5000.0 + 1 and 5000.0 - 1 <= hi

@@ -1284,7 +1284,15 @@ def _fig_distributions(res: ScenarioResult, mc: dict, path: Path, panel) -> bool
             panels.append((prot, metric) + tuple(got))
     if not panels:
         return False
+    # ideal-lab twins in the row(s) below their lab protocols, each under its own
+    twins = [x for x in panels if getattr(x[0], "twin_of", None)]
+    labs = [x for x in panels if x not in twins]
     ncol = min(len(panels), DIST_PANELS_A_ROW)
+    if twins and labs and len(labs) <= DIST_PANELS_A_ROW:
+        ncol = len(labs)
+        order = {x[0].name: i for i, x in enumerate(labs)}
+        twins.sort(key=lambda x: order.get(x[0].twin_of, len(order)))
+        panels = labs + twins
     nrow = -(-len(panels) // ncol)
     widest = max(len(_collapse_sweeps(p[2], p[3], res.plan)[0]) for p in panels)
     fig, axes = plt.subplots(nrow, ncol, figsize=(ncol * max(3.6, 0.42 * widest + 1.2) + 0.6,

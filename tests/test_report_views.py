@@ -421,3 +421,20 @@ def test_methods_whose_errors_dwarf_the_others_get_their_own_panel(figs, tmp_pat
     assert lo <= w.min() and w.max() <= hi and hi - lo < 3000.0
     lo, hi = loud.get_ylim()
     assert lo <= -5000.0 + 1 and 5000.0 - 1 <= hi
+
+
+def test_ideal_twins_sit_under_their_lab_protocols(figs, tmp_path):
+    plan = _plan()
+    vals = {lab: list(10.0 + np.arange(20.0)) for lab in ["raw", "kalman"]}
+    names = [("a", None), ("a.ideal", "a"), ("b", None), ("b.ideal", "b")]
+    plan.protocols = [SimpleNamespace(name=n, in_sample=False, twin_of=t) for n, t in names]
+    plan.claims = []
+    mc = {"replicates": 20, "series": {n: {"rmse_dph": vals} for n, _ in names},
+          "over_runs": {n: {lab: {"rmse_dph": {}} for lab in vals} for n, _ in names}}
+    assert R.fig_replicates(SimpleNamespace(plan=plan), mc, tmp_path / "r.png")
+    fig = figs[-1]
+    pos = {ax.get_title().split(":")[0]: ax.get_position() for ax in fig.axes
+           if ax.get_visible()}
+    assert pos["a"].x0 == pytest.approx(pos["a.ideal"].x0)
+    assert pos["b"].x0 == pytest.approx(pos["b.ideal"].x0) and pos["b"].x0 > pos["a"].x0
+    assert pos["a.ideal"].y0 < pos["a"].y0

@@ -417,7 +417,8 @@ def metric_takeaway(mc: dict, plan) -> str | None:
             else:
                 g = ("better" if lo is not None and lo > 0 else
                      "worse" if hi is not None and hi < 0 else "not told apart from raw")
-            groups[g].append((-(sm.get("mean") or -math.inf), txt))
+            mean = sm.get("mean")
+            groups[g].append((math.inf if mean is None else -mean, txt))    # best first
         parts = [f"{g}: " + ", ".join(t for _, t in sorted(v)) for g, v in groups.items() if v]
         if not parts:
             continue

@@ -372,11 +372,6 @@ def verdicts_section(mc: dict, fig_names: dict) -> list[str]:
     return L
 
 
-#: the improvement over raw (%, 100 (1 - method / raw) per replicate: paired by construction)
-#: of each key metric (fogbench.fmt.key_metric)
-IMPROVEMENT_OF = {"rmse_dph": "improvement_rmse_pct", "drift_rms_dph": "improvement_drift_pct",
-                  "bias_stability_100s_dph": "improvement_bias_stability_pct",
-                  "std_dps": "improvement_std_pct"}
 #: an improvement whose whole interval is within this of 0 (%) is "unchanged", whatever its sign:
 #: a bias removed leaves the 100 s bias stability the same to rounding (1e-12 %), which
 #: printed at 0.1 % reads 0.0 and is no improvement
@@ -388,7 +383,7 @@ def metric_takeaway(mc: dict, plan) -> str | None:
     metric's improvement over raw, each method placed by its interval over the replicates:
     better than raw (the interval above 0), worse (below 0) or not told apart; the oracles
     beside them. None when no protocol has an improvement of a key metric."""
-    from .fmt import ci_text, key_metric
+    from .fmt import IMPROVEMENT_OF, ci_text, key_metric
 
     twins = {p.name for p in getattr(plan, "protocols", []) if getattr(p, "twin_of", None)}
     n_rep = mc.get("replicates")

@@ -190,6 +190,11 @@ def _figure_rows(rows: list[dict]) -> list[dict]:
     """The rows the figure draws: ideal-lab twins (``<name>.ideal``, in the table and in each
     report's "What the lab's references cost") left out; a sweep's members as one row, its
     paper (default) setting's, with ``sweep`` the members' (min, max) mean and count."""
+    means_of: dict[tuple, list[float]] = {}
+    for x in rows:
+        if x.get("group") and x["value"].get("mean") is not None:
+            means_of.setdefault((x["scenario"], x["protocol"], x["group"]), []).append(
+                x["value"]["mean"])
     out, seen = [], {}
     for r in rows:
         if r.get("ideal_of"):
@@ -199,9 +204,7 @@ def _figure_rows(rows: list[dict]) -> list[dict]:
             out.append(dict(r))
             continue
         key = (r["scenario"], r["protocol"], g)
-        means = [x["value"]["mean"] for x in rows
-                 if (x["scenario"], x["protocol"], x.get("group")) == key
-                 and x["value"].get("mean") is not None]
+        means = means_of.get(key, [])
         if key not in seen:
             seen[key] = len(out)
             out.append({**r, "method": f"{g} ({len(means)} settings)",

@@ -4,13 +4,18 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["KEY_METRICS", "fmt", "md_table", "decimation", "ci_text", "p_better_text", "key_metric",
+__all__ = ["KEY_METRICS", "IMPROVEMENT_OF", "fmt", "md_table", "decimation", "ci_text", "p_better_text", "key_metric",
            "metrics_table"]
 
 KEY_METRICS = ("std_dps", "rmse_dph", "drift_rms_dph", "bias_stability_100s_dph",
                "angle_error_final_deg", "coef_rms_error_dph", "arw_deg_rt_h",
                "bias_instability_dph", "rrw_dph_rt_h", "improvement_rmse_pct",
                "improvement_bias_stability_pct", "improvement_drift_pct", "fit_time_s")
+#: the improvement over raw (%, 100 (1 - method / raw) in the same replicate) of each error
+#: metric that has one (fogbench.runner.score writes them)
+IMPROVEMENT_OF = {"std_dps": "improvement_std_pct", "rmse_dph": "improvement_rmse_pct",
+                  "bias_stability_100s_dph": "improvement_bias_stability_pct",
+                  "drift_rms_dph": "improvement_drift_pct"}
 
 def fmt(v, metric: str = "") -> str:
     if v is None:

@@ -968,8 +968,6 @@ def _y_axis_zoomed(w: _Writer, paths: list[str]):
     """The error view's y range zoomed to the methods, raw and oracle in it unless the range
     holding them would span more than DWARF times the methods' (as the PNG's zoom), with the
     legend's headroom above; ``(axis, labels left off the scale)``."""
-    import rerun.blueprint as rrb
-
     def ranges(ps):
         return [w.ranges[x] for x in ps if x in w.ranges]
 
@@ -988,14 +986,7 @@ def _y_axis_zoomed(w: _Writer, paths: list[str]):
         if max(b, hi) - min(a, lo) > DWARF * width:
             off.append(x.rsplit("/", 1)[1])
     keep = [x for x in paths if x.rsplit("/", 1)[1] not in off]
-    fixed = _y_axis(w, keep)
-    if fixed is not None:
-        return fixed, sorted(set(off))
-    r = ranges(keep)
-    lo, hi = min(a for a, _ in r), max(b for _, b in r)
-    span = hi - lo
-    return rrb.ScalarAxis(range=(lo - 0.05 * span, hi + LEGEND_HEADROOM * span)), \
-        sorted(set(off))
+    return _y_axis_with_headroom(w, keep), sorted(set(off))
 
 
 def _blueprint_class():

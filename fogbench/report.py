@@ -416,9 +416,8 @@ def fig_dwells(it, path: Path, plan=None) -> None:
     k = truth_mean.size
     x = np.arange(1, k + 1)
     bars = k <= DWELL_BARS_MAX
-    err, sem, mean, mean_sem = {}, {}, {}, {}
+    err, sem = {}, {}
     for lab in labels:
-        _, mean[lab], mean_sem[lab] = dwell_means(p.t, it.outputs[lab], p.fs)
         _, e, se = dwell_means(p.t, it.outputs[lab] - p.truth, p.fs)
         err[lab], sem[lab] = e / DPH, se / DPH
     lo, hi = _span([err[m] for m in methods])
@@ -443,8 +442,9 @@ def fig_dwells(it, path: Path, plan=None) -> None:
     ax = axes[0]
     ax.plot(x, truth_mean / DPH, "_", color=COLORS["truth"], ms=max(4, min(18, 500 // k)),
             mew=2, label="truth", zorder=10)
-    if "raw" in mean:
-        draw(ax, "raw", mean["raw"] / DPH, mean_sem["raw"] / DPH)
+    if "raw" in it.outputs:
+        _, raw_mean, raw_sem = dwell_means(p.t, it.outputs["raw"], p.fs)
+        draw(ax, "raw", raw_mean / DPH, raw_sem / DPH)
     ax.set_ylabel("dwell mean rate,\ndeg/h", fontsize=9)
     ax.set_title(f"{it.protocol} / {it.run}: each static dwell's mean ({k} dwells; "
                  + ("bars: standard error of the mean)" if bars else
@@ -774,9 +774,11 @@ def _paper_value(plan, method, metric, run, segment=None):
     return None
 
 
-def render_report(res: ScenarioResult, fig_names: dict, decimation: dict) -> str:
+def render_report(res: ScenarioResult, fig_names: dict, decimation: dict,
+                  same: set | None = None) -> str:
+    """The report's markdown; ``same``: :func:`same_as_lab` of ``res`` when already known."""
     sc, plan, doc = res.scenario, res.plan, res.metrics
-    same = same_as_lab(res)
+    same = same_as_lab(res) if same is None else same
     L = [f"# {sc.name}", "", sc.description, "",
          f"Scenario file: `{Path(sc.path).name}`. FOG: {sc.device}; axis `{plan.axis}`; {sc.fs:g} Hz. Wall time {res.wall_s:.1f} s "
          "(simulating every run, fitting and scoring, in one process; it leaves out writing "
@@ -1185,7 +1187,7 @@ def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_d
         if map_doc is not None:
             doc = {**doc, "map": map_doc}
         write_metrics(tmp / "metrics.json", doc)
-        text = render_report(res, fig_names, decim)
+        text = render_report(res, fig_names, decim, same)
         if montecarlo is not None:
             # the answer first: takeaway, verdicts, evidence; then the set-up
             text = open_on_answer(text, render_montecarlo(res, montecarlo, fig_names),

@@ -31,6 +31,7 @@ from sim.rig import RunData, simulate_run
 from sim.thermal import ThermalHold
 
 from .executor import replicate_seed
+from .fmt import IMPROVEMENT_OF
 from .io import atomic_write_text, json_ready, versions
 from .scenario import (RUNNER_SECTIONS, Plan, Protocol, Scenario, Selection, expand, load_plan,
                        load_scenario, select_indices)
@@ -193,9 +194,7 @@ def score(out: np.ndarray, piece: Piece, raw_ref: dict | None = None) -> dict:
     if dur >= 300.0 and gaps.size == 0:  # of one contiguous record, not of stitched dwells
         m["bias_stability_100s_dph"] = M.bias_stability(out, piece.fs, 100.0) / DPH
     if raw_ref is not None:
-        for key, name in (("std_dps", "improvement_std_pct"), ("rmse_dph", "improvement_rmse_pct"),
-                          ("bias_stability_100s_dph", "improvement_bias_stability_pct"),
-                          ("drift_rms_dph", "improvement_drift_pct")):
+        for key, name in IMPROVEMENT_OF.items():
             if key in m and raw_ref.get(key):
                 m[name] = 100.0 * (1.0 - m[key] / raw_ref[key])
     return m

@@ -258,15 +258,20 @@ def _g_unit(kind: str, T: float | None, a: np.ndarray, tau0: float) -> np.ndarra
 
 
 def _f_unit(kind, T, h, mi, mj, tau0):
-    """f_ij(h) of one unit process (module docstring), shape of h."""
+    """f_ij(h) of one unit process (module docstring), shape of h: the sum over a, b in 0..2
+    of C_a C_b g(|h + a mi - b mj|), g at the nine shifts in one call (this is the inner loop
+    of the covariance basis) and summed in the order of that double loop, so that the result
+    is the loop's to the last bit (tests/test_noise.py keeps the loop as the twin)."""
+    h = np.asarray(h, dtype=float)
+    ab = [(a, b) for a in range(3) for b in range(3)]
+    col = (9,) + (1,) * h.ndim
+    # (h + a mi) - b mj, as the loop computed it (the quadrature's lags are not integers)
+    arg = (h[None, ...] + np.array([a * mi for a, _ in ab], dtype=float).reshape(col)) \
+        - np.array([b * mj for _, b in ab], dtype=float).reshape(col)
+    g = (arg == 0) if kind == "Q" else _g_unit(kind, T, np.abs(arg), tau0)
     out = np.zeros_like(h, dtype=float)
-    for a in range(3):
-        for b in range(3):
-            arg = h + a * mi - b * mj
-            if kind == "Q":
-                out += _C[a] * _C[b] * (arg == 0)
-            else:
-                out += _C[a] * _C[b] * _g_unit(kind, T, np.abs(arg), tau0)
+    for k, (a, b) in enumerate(ab):
+        out += _C[a] * _C[b] * g[k]
     return out
 
 

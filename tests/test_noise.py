@@ -239,3 +239,29 @@ def test_parse_model():
                        (3, "expected terms")):
         with pytest.raises(ValueError, match=match):
             parse_model(bad)
+
+
+def test_the_covariance_kernel_at_nine_shifts_at_once_is_the_double_loop_to_the_bit():
+    """``_f_unit`` evaluates g at its nine shifts in one call; the slow obvious twin, the double
+    loop over a, b it replaced, gives the same numbers to the last bit for every process, on
+    term-by-term lags and on quadrature nodes."""
+    def loop(kind, T, h, mi, mj, tau0):
+        out = np.zeros_like(h, dtype=float)
+        for a in range(3):
+            for b in range(3):
+                arg = h + a * mi - b * mj
+                if kind == "Q":
+                    out += NZ._C[a] * NZ._C[b] * (arg == 0)
+                else:
+                    out += NZ._C[a] * NZ._C[b] * NZ._g_unit(kind, T, np.abs(arg), tau0)
+        return out
+
+    tau0 = 1.0 / FS
+    nodes, _ = NZ._gl_nodes(NZ._geometric_pieces(-5000.5, 9000.5, "both"))
+    for h in (np.arange(-700.0, 3001.0), nodes):
+        for kind, T in [("N", None), ("K", None), ("B", None), ("GM", 30.0), ("GM", 0.7),
+                        ("Q", None)]:
+            for mi, mj in [(1, 1), (700, 3000), (64, 2048)]:
+                fast = NZ._f_unit(kind, T, h, mi, mj, tau0)
+                np.testing.assert_array_equal(fast, loop(kind, T, h, mi, mj, tau0))
+                assert np.any(fast != 0) or (kind == "Q" and h is nodes)  # Q: integer lags

@@ -195,7 +195,7 @@ def _cmd_run(args) -> int:
         map_doc = mapper.finish(doc, label) if mapper is not None else None
         write_run_dir(mc.res0, out, recording=not args.no_recording,
                       montecarlo=doc if mc.R > 1 else None, work=mc.work, map_doc=map_doc,
-                      map_run=mapper)
+                      map_run=mapper, figures=not args.no_figures)
     except BaseException as exc:
         if mapper is not None:
             mapper.release()
@@ -286,7 +286,8 @@ def _cmd_suite(args) -> int:
                      quiet=args.quiet, names=args.scenario, replicates=args.replicates,
                      method_seeds=args.method_seeds, scheduler=args.scheduler,
                      cluster=args.cluster, cluster_options=opts, resume=args.resume,
-                     no_map=args.no_map, map_replicates=args.map_replicates)
+                     no_map=args.no_map, map_replicates=args.map_replicates,
+                     figures=not args.no_figures)
 
 
 def _cmd_view(args) -> int:
@@ -391,6 +392,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "or one that fogbench run wrote: nothing else is ever replaced")
     r.add_argument("--method", action="append", help="only this method label (repeatable)")
     r.add_argument("--no-recording", action="store_true", help="do not write recording.rrd")
+    r.add_argument("--no-figures", action="store_true",
+                   help="draw no figures: the numbers, report and bounds only (a quick check)")
     r.add_argument("--quiet", action="store_true", help="no progress on stderr")
     _mc_flags(r)
     r.add_argument("--resume", action="store_true",
@@ -417,6 +420,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="only the scenarios marked ci = true (the CI subset)")
     u.add_argument("--scenario", action="append", help="only this scenario name (repeatable)")
     u.add_argument("--no-recording", action="store_true", help="do not write recordings")
+    u.add_argument("--no-figures", action="store_true",
+                   help="draw no figures in the run folders: the numbers, reports and bounds "
+                        "only (a quick check; compare.png is still drawn)")
     u.add_argument("--quiet", action="store_true", help="no progress on stderr")
     _mc_flags(u)
     u.add_argument("--resume", action="store_true",

@@ -1107,7 +1107,7 @@ def _fit_notes(pd: dict) -> str:
 
 def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_data: bool = True,
                   montecarlo: dict | None = None, work=None, map_doc: dict | None = None,
-                  map_run=None) -> Path:
+                  map_run=None, figures: bool = True) -> Path:
     """Write metrics.json, report.md, figures, data (and recording.rrd) into ``out``.
 
     Everything is written into a hidden temporary sibling (its marker file first), which then
@@ -1119,19 +1119,23 @@ def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_d
     are copied into ``replicates/`` and which is removed once the directory is in place.
     ``map_doc`` is the claim map (``fogbench.maps``; in ``metrics.json`` under ``"map"``, a
     section and one figure per claim in the report), ``map_run`` its points, whose replicates
-    are copied into ``map/point<i>/replicates/``.
+    are copied into ``map/point<i>/replicates/``. ``figures=False`` draws none (a bounds check
+    that needs only the numbers; the report says so).
     """
     out = check_out_dir(out, "run")
     tmp = new_part_dir(out, "run", {"scenario": res.scenario.name,
                                     "scenario_file": str(res.scenario.path),
                                     "fogbench": versions().get("fogbench")})
     try:
-        fig_names, decim, notes = {}, {}, []
+        fig_names, decim = {}, {}
+        notes = [] if figures else ["figures: none drawn (--no-figures)"]
 
         def figure(what: str, fn, *args):
             """Draw one figure; a figure that cannot be drawn is noted, never fatal. A figure
             that cannot be written (a full disk, a file-size limit) or memory running out is
             an error of the whole command: nothing is put in place."""
+            if not figures:
+                return None
             try:
                 return fn(*args)
             except (OSError, MemoryError):
@@ -1142,7 +1146,8 @@ def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_d
                 notes.append(f"figure {what} left out: {type(exc).__name__}: {exc}")
                 return None
 
-        (tmp / "figures").mkdir()
+        if figures:
+            (tmp / "figures").mkdir()
         same = same_as_lab(res)
         for it in res.scored:
             base = f"{it.protocol}__{it.run}"

@@ -325,7 +325,7 @@ def run_suite(scenario_dir: Path, out: Path, check: bool = False, jobs: int | No
               method_seeds: int | None = None, scheduler: str | None = None,
               cluster: str | None = None, cluster_options: dict | None = None,
               resume: bool = False, no_map: bool = False,
-              map_replicates: int | None = None) -> int:
+              map_replicates: int | None = None, figures: bool = True) -> int:
     """Run every scenario of ``scenario_dir`` with its replicates on one executor and write
     ``out/<scenario>/`` and the summary ``out/README.md``. Returns the exit status."""
     scenario_dir = Path(scenario_dir)
@@ -382,7 +382,7 @@ def run_suite(scenario_dir: Path, out: Path, check: bool = False, jobs: int | No
     try:
         return _suite_body(plans, chosen, first_file, results, out, readme, check, jobs,
                            recording, quiet, replicates, method_seeds, scheduler, cluster,
-                           cluster_options, resume, no_map, map_replicates)
+                           cluster_options, resume, no_map, map_replicates, figures)
     finally:
         claim.release()
         if created and not any(Path(out).iterdir()):
@@ -391,7 +391,7 @@ def run_suite(scenario_dir: Path, out: Path, check: bool = False, jobs: int | No
 
 def _suite_body(plans, chosen, first_file, results, out, readme, check, jobs, recording,
                 quiet, replicates, method_seeds, scheduler, cluster, cluster_options,
-                resume, no_map, map_replicates) -> int:
+                resume, no_map, map_replicates, figures=True) -> int:
     t0 = time.monotonic()
     mcs: dict = {}
     maps: dict = {}
@@ -436,7 +436,8 @@ def _suite_body(plans, chosen, first_file, results, out, readme, check, jobs, re
         contextlib.nullcontext(SerialExecutor())
     try:
         _run_all(mcs, engine, total, quiet, out, recording, results,
-                 engine_label(jobs, scheduler, cluster) if need_pool else "this process", maps)
+                 engine_label(jobs, scheduler, cluster) if need_pool else "this process", maps,
+                 figures)
     except BaseException:
         kept = {n: len(m.done) for n, m in mcs.items() if m.done}
         if kept:
@@ -486,7 +487,8 @@ def _suite_body(plans, chosen, first_file, results, out, readme, check, jobs, re
 
 
 def _run_all(mcs: dict, engine, total: int, quiet: bool, out, recording: bool,
-             results: list, label: str, maps: dict | None = None) -> None:
+             results: list, label: str, maps: dict | None = None,
+             figures: bool = True) -> None:
     """Every scenario's replicates on one executor: the tables first, all replicates submitted
     (each stored as it completes), then scenario by scenario its replicate 0 in full here, the
     wait for its others, and its run directory."""
@@ -522,7 +524,7 @@ def _run_all(mcs: dict, engine, total: int, quiet: bool, out, recording: bool,
                     map_doc = maps[name].finish(doc, label)
                 write_run_dir(m.res0, Path(out) / name, recording=recording,
                               montecarlo=doc if m.R > 1 else None, work=m.work,
-                              map_doc=map_doc, map_run=maps.get(name))
+                              map_doc=map_doc, map_run=maps.get(name), figures=figures)
                 metrics = {**m.res0.metrics, **({"montecarlo": doc} if m.R > 1 else {}),
                            **({"map": map_doc} if map_doc else {})}
                 results.append({"path": m.path, "name": name, "ok": True,

@@ -15,11 +15,15 @@ $(STAMP): pyproject.toml
 run: $(STAMP)
 	$(BIN)/fogbench suite --out reports
 
+# Two pytest-xdist workers, each test's time stealable (--dist worksteal); tests/conftest.py
+# holds each worker to one BLAS thread. Serial: add -p no:xdist (or -n 0).
+XDIST := -n 2 --dist worksteal
+
 test: $(STAMP)
-	$(BIN)/python -m pytest -q -m "not slow"
+	$(BIN)/python -m pytest -q -m "not slow" $(XDIST)
 
 test-all: $(STAMP)
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q $(XDIST)
 
 bench: $(STAMP)
 	$(BIN)/fogbench bench

@@ -386,13 +386,14 @@ def test_a_run_keeps_the_device_it_ran_and_resume_refuses_an_edited_one(tmp_path
     s = tmp_path / "s.toml"
     s.write_text(SMALL_SCENARIO.replace('preset = "tactical"', 'device = "dev.toml"'))
     out = tmp_path / "run"
-    code, _, err = run_cli("run", s, "--out", out, "--replicates", "2", "--no-recording")
+    code, _, err = run_cli("run", s, "--out", out, "--replicates", "2", "--no-recording",
+                           "--no-figures")
     assert code == 0, err
     kept = (out / "scenario.toml").read_text()
     assert "arw_deg_rt_h = 0.03" in kept and "sha256" in kept
     dev.write_text(preset_text("tactical").replace("arw_deg_rt_h = 0.03", "arw_deg_rt_h = 0.06"))
     code, _, err = run_cli("run", s, "--out", out, "--replicates", "3", "--resume",
-                           "--no-recording")
+                           "--no-recording", "--no-figures")
     assert code == 2 and "Traceback" not in err, err
     dev.write_text("arw_deg_rt_h = -1.0\n")
     code, _, err = run_cli("check", s)

@@ -49,7 +49,7 @@ def test_the_installed_plugin_runs_in_a_scenario_beside_a_builtin(installed, tmp
     s = tmp_path / "s.toml"
     s.write_text(SMALL_SCENARIO)
     done = _fogbench(installed, "run", s, "--out", tmp_path / "run", "--no-recording",
-                     "--quiet", "--with-method", "ar_kalman", cwd=tmp_path)
+                     "--no-figures", "--quiet", "--with-method", "ar_kalman", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     report = (tmp_path / "run" / "report.md").read_text()
     rows = [ln for ln in report.splitlines() if ln.startswith(("| ar_kalman |",

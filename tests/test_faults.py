@@ -575,7 +575,7 @@ def killed(tiny, tmp_path):
 
 def _resume(tiny, tmp_path, *extra):
     return run_cli("run", tiny, "--out", tmp_path / "run", "--resume", "--quiet",
-                   "--no-recording", *extra)
+                   "--no-recording", "--no-figures", *extra)
 
 
 def test_an_edited_replicate_is_refused_by_resume_naming_the_file(tiny, tmp_path, killed):
@@ -624,7 +624,8 @@ def test_the_resumed_aggregate_equals_an_uninterrupted_run(tiny, tmp_path, kille
     code, _, err = _resume(tiny, tmp_path)
     assert code == 0, err
     got = json.loads((tmp_path / "run" / "metrics.json").read_text())["montecarlo"]["digest"]
-    code, _, err = run_cli("run", tiny, "--out", tmp_path / "whole", "--quiet", "--no-recording")
+    code, _, err = run_cli("run", tiny, "--out", tmp_path / "whole", "--quiet", "--no-recording",
+                           "--no-figures")
     assert code == 0, err
     want = json.loads((tmp_path / "whole" / "metrics.json").read_text())["montecarlo"]["digest"]
     assert got == want

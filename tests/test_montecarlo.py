@@ -198,7 +198,7 @@ def _cli(*args):
 def test_run_writes_replicates_and_the_aggregate(scn, tmp_path):
     out = tmp_path / "run"
     code, err = _cli("run", scn, "--out", out, "--replicates", 3, "--jobs", 1, "--quiet",
-                     "--no-recording")
+                     "--no-recording", "--no-figures")
     assert code == 0, err
     doc = json.loads((out / "metrics.json").read_text())
     assert doc["montecarlo"]["replicates"] == 3
@@ -209,7 +209,7 @@ def test_run_writes_replicates_and_the_aggregate(scn, tmp_path):
     assert "## Over 3 replicates" in report and "**untestable**" in report
     # one replicate: today's single run, no Monte Carlo section
     code, err = _cli("run", scn, "--out", tmp_path / "one", "--replicates", 1, "--quiet",
-                     "--no-recording")
+                     "--no-recording", "--no-figures")
     assert code == 0, err
     assert "montecarlo" not in json.loads((tmp_path / "one" / "metrics.json").read_text())
 

@@ -42,7 +42,8 @@ def test_failing_plugins_are_reported_and_the_run_goes_on(tmp_path):
     names = ["plugin_methods:MeanBias"] + [f"plugin_methods:{c}" for c in FAILING
                                            if c != "Broken"] + ["plugin_broken:Broken"]
     s = _scenario(tmp_path, names)
-    code, out, err = run_cli("run", s, "--out", tmp_path / "run", "--no-recording", "--quiet")
+    code, out, err = run_cli("run", s, "--out", tmp_path / "run", "--no-recording",
+                             "--no-figures", "--quiet")
     assert code == 0, err
     doc = json.loads((tmp_path / "run" / "metrics.json").read_text())   # complete JSON
     report = (tmp_path / "run" / "report.md").read_text()
@@ -140,15 +141,15 @@ def test_with_method_reaches_worker_processes_and_later_runs_do_not_inherit_it(t
     the flag was given has another environment): every replicate scores the added method; a
     later run in the same process without the flag has no trace of it."""
     s = _scenario(tmp_path, [])
-    code, _, err = run_cli("run", s, "--out", tmp_path / "a", "--no-recording", "--quiet",
-                           "--replicates", "3", "--jobs", "2",
+    code, _, err = run_cli("run", s, "--out", tmp_path / "a", "--no-recording",
+                           "--no-figures", "--quiet", "--replicates", "3", "--jobs", "2",
                            "--with-method", "plugin_methods:MeanBias")
     assert code == 0, err
     mc = json.loads((tmp_path / "a" / "metrics.json").read_text())["montecarlo"]
     series = mc["series"]["p"]["rmse_dph"]["MeanBias"]
     assert len(series) == 3 and all(v is not None for v in series), series
-    code, _, err = run_cli("run", s, "--out", tmp_path / "b", "--no-recording", "--quiet",
-                           "--replicates", "3", "--jobs", "2")
+    code, _, err = run_cli("run", s, "--out", tmp_path / "b", "--no-recording",
+                           "--no-figures", "--quiet", "--replicates", "3", "--jobs", "2")
     assert code == 0, err
     mc = json.loads((tmp_path / "b" / "metrics.json").read_text())["montecarlo"]
     assert "MeanBias" not in json.dumps(mc)

@@ -31,7 +31,8 @@ a protocol scores the same run more than once; `<label>`: `raw`, `oracle` or a m
 | `/runs/<run>/fog/raw` | raw FOG output, deg/s |
 | `/runs/<run>/fog/compensated/<protocol>/<label>` | output of a scored piece (raw, oracle, each method), deg/s |
 | `/runs/<run>/fog/error/<protocol>/<label>` | that output minus the truth, deg/h |
-| `/runs/<run>/fog/error_shown/<protocol>/<label>` | the same with what every output keeps alike taken out (`fogbench.views.kept_alike`, as the PNG time series): raw's slow variation about its mean under a wander no method removes, or each curve's moving mean under fast noise every method keeps; only for pieces that have such a thing; the Overview shows these, the Errors tab the errors as they are, deg/h |
+| `/runs/<run>/fog/error_shown/<protocol>/<label>` | the same with what every output keeps alike taken out (`fogbench.views.kept_alike`, as the PNG time series): raw's slow variation about its mean under a wander no method removes, or each curve's moving mean under fast noise every method keeps; only for pieces that have such a thing; the Overview shows these, the Errors tab the errors as they are, deg/h; a sweep's members other than its default are only in its envelope (next row) |
+| `/runs/<run>/fog/error_shown/<protocol>/<sweep> envelope/{low,high}` | a sweep's envelope in the Overview's error view: the lowest and highest of its members' shown errors at each time (their errors as they are where a piece takes nothing out), deg/h |
 | `/runs/<run>/fog/error_terms/<term>` | each simulated error term (`FogOutput.terms`), deg/h |
 | `/runs/<run>/table/tilt_deg`, `tilt_cmd_deg` | tilt angle and its command, deg |
 | `/runs/<run>/table/turn_rate_dps`, `turn_rate_cmd_dps` | turntable rate and its command, deg/s |
@@ -117,6 +118,7 @@ import os
 import shutil
 import subprocess
 import sys
+import warnings
 import zlib
 from pathlib import Path
 
@@ -126,7 +128,7 @@ from fogcomp.units import DPH, DPS
 
 from . import palette as PAL
 from .fmt import decimation, fmt, md_table, metrics_table
-from .views import DWARF, kept_alike, moving_mean
+from .views import DWARF, kept_alike, method_entries, moving_mean, sweep_names
 
 __all__ = ["write_recording", "view", "blueprint_for", "ReplicatesError", "decimation",
            "MAX_SERIES_POINTS", "MAX_POSE_POINTS", "TIMELINE", "REPLICATE_TIMELINE",
@@ -192,6 +194,9 @@ class _Writer:
         self.mc_plotted: set[tuple[str, str]] = set()         # (protocol, metric) plotted
         self.mc_width: dict[str, float] = {}                  # Monte Carlo plot -> box width
         self.shown: dict[str, tuple[str, int]] = {}           # error root -> (kind, k) taken out
+        # the Overview's error view draws a sweep as its default setting's line and the
+        # envelope of its members: error root -> (members' shown paths not drawn, envelope's)
+        self.sweeps: dict[str, tuple[set[str], list[str]]] = {}
 
     def _time(self, t: np.ndarray, timeline: str = TIMELINE):
         ns = np.round(np.asarray(t, dtype=float) * 1e9).astype(np.int64)
@@ -334,7 +339,7 @@ def _log_all(rec, res, reps: dict) -> _Writer:
     ins = _in_sample(res)
     for key, it in zip(_piece_keys(res), res.scored):
         piece_decim.append(_log_piece(w, key, it, colors, ins.get(it.protocol, False),
-                                      _legend_names(res)))
+                                      _legend_names(res), res.plan))
     rec.log("/report/metrics", rr.TextDocument(_metrics_text(res, decim, piece_decim),
                                                media_type="text/markdown"), static=True)
     rec.log("/report/scenario", rr.TextDocument(
@@ -481,8 +486,10 @@ def _piece_color(colors, lab: str, in_sample: bool) -> tuple:
 
 
 def _log_piece(w: _Writer, key: str, it, colors, in_sample: bool,
-               names: dict | None = None) -> int:
-    """Compensated outputs, errors, Allan deviation and PSD of one scored piece."""
+               names: dict | None = None, plan=None) -> int:
+    """Compensated outputs, errors, Allan deviation and PSD of one scored piece. In the
+    Overview's error view (``error_shown``) a sweep is its default setting's line and the
+    envelope of its members (the best and the worst at each time), as in the PNGs."""
     from fogcomp import metrics as M
     from fogcomp.allan import oadev_ci
 
@@ -497,9 +504,16 @@ def _log_piece(w: _Writer, key: str, it, colors, in_sample: bool,
     kind, trend, kw = kept_alike(errs, [lab for lab in errs if lab not in ("raw", "oracle")])
     if kind is not None:
         w.shown[_p("runs", it.run, "fog", "error", key)] = (kind, kw)
+    sweeps = [e for e in method_entries(list(it.outputs), plan) if e["group"]] \
+        if plan is not None else []
+    members_shown: dict[str, np.ndarray] = {}
+    in_envelope = {m for e in sweeps for m in e["members"] if m != e["default"]}
+    # where a sweep is its default's line and an envelope, the default is named as such (the
+    # Errors tab keeps every member under the sweep's one name)
+    as_default = {e["default"]: sweep_names(e)[0] for e in sweeps}
     for lab, out in it.outputs.items():
         c = _piece_color(colors, lab, in_sample)
-        name = _piece_name(names.get(lab, lab), in_sample)        # Allan and PSD legends
+        name = _piece_name(as_default.get(lab, names.get(lab, lab)), in_sample)  # Allan, PSD
         sname = _series_name(lab, in_sample, it.protocol, names)  # time series legends
         width = 3.0 if lab == "raw" else 1.5
         w.series(_p("runs", it.run, "fog", "compensated", key, lab), p.t[s], out[s] / DPS,
@@ -507,10 +521,14 @@ def _log_piece(w: _Writer, key: str, it, colors, in_sample: bool,
         w.series(_p("runs", it.run, "fog", "error", key, lab), p.t[s],
                  (out[s] - p.truth[s]) / DPH, sname, c, width)
         err = errs[lab]
+        members_shown[lab] = err
         if kind is not None:
             shown = err - trend if kind == "trend" else moving_mean(err, kw)
-            w.series(_p("runs", it.run, "fog", "error_shown", key, lab), p.t[s], shown[s],
-                     sname, c, width)
+            members_shown[lab] = shown
+            if lab not in in_envelope:
+                w.series(_p("runs", it.run, "fog", "error_shown", key, lab), p.t[s], shown[s],
+                         _series_name(lab, in_sample, it.protocol, {**names, **as_default}),
+                         c, width)
         if p.raw.size >= 64:
             try:
                 # intervals from the EDF of the noise type leading each tau (Greenhall & Riley)
@@ -533,6 +551,25 @@ def _log_piece(w: _Writer, key: str, it, colors, in_sample: bool,
             ok = (f > 0) & np.isfinite(pxx) & (pxx > 0)
             if ok.sum() >= 2:
                 psd.append((lab, name, c, f[ok], pxx[ok], low[ok], high[ok]))
+    envelope = []
+    for e in sweeps:
+        stack = np.vstack([members_shown[m][s] for m in e["members"]])
+        c = _tint(_piece_color(colors, e["default"], in_sample), 0.35)
+        name = _series_name(e["default"], in_sample, it.protocol, {}) if in_sample else \
+            sweep_names(e)[1]
+        with warnings.catch_warnings():     # a time no member has: NaN, not drawn
+            warnings.simplefilter("ignore", RuntimeWarning)
+            ends = {"low": np.nanmin(stack, axis=0), "high": np.nanmax(stack, axis=0)}
+        for end, y in ends.items():
+            path = _p("runs", it.run, "fog", "error_shown", key, f"{e['group']} envelope", end)
+            w.series(path, p.t[s], y, name, c, 1.0)
+            envelope.append(path)
+    if sweeps:       # the members the Overview leaves to the envelope, as it lists them
+        w.sweeps[_p("runs", it.run, "fog", "error", key)] = (
+            {_p("runs", it.run, "fog", "error_shown" if kind else "error", key, m)
+             for m in in_envelope}, envelope)
+    allan, psd = (_sweeps_as_envelopes(curves, sweeps, colors, in_sample, it.protocol)
+                  for curves in (allan, psd))
     if allan:
         _loglog(w, _p("report", "allan", key, it.run), allan, "tau, s",
                 "Allan deviation of output - truth, deg/h",
@@ -543,6 +580,32 @@ def _log_piece(w: _Writer, key: str, it, colors, in_sample: bool,
                 f"Welch in {PAL.PSD_PER_DECADE} bands a decade; bars: "
                 f"{100 * CONFIDENCE:.0f} % interval, EDF of each band")
     return k
+
+
+def _sweeps_as_envelopes(curves: list, sweeps: list, colors, in_sample: bool,
+                         protocol: str) -> list:
+    """Log-log ``curves`` (label, name, colour, x, y, lo, hi) with each sweep's members but its
+    default setting replaced by their envelope, as in the PNGs: two thin lines, the lowest and
+    the highest member at every x all of them reach, one legend entry, no interval bars."""
+    by_lab = {c[0]: c for c in curves}
+    out = list(curves)
+    for e in sweeps:
+        have = [by_lab[m] for m in e["members"] if m in by_lab]
+        if len(have) < 2:
+            continue
+        xs = have[0][3]
+        for c in have[1:]:
+            xs = np.intersect1d(xs, c[3])
+        out = [c for c in out if c[0] not in e["members"] or c[0] == e["default"]]
+        if xs.size < 2:
+            continue
+        ys = np.vstack([np.interp(xs, c[3], c[4]) for c in have])   # at points they all have
+        color = _tint(_piece_color(colors, e["default"], in_sample), 0.35)
+        name = _series_name(e["default"], in_sample, protocol, {}) if in_sample else \
+            sweep_names(e)[1]
+        out += [(f"{e['group']} envelope {end}", name, color, xs, y, None, None)
+                for end, y in (("low", ys.min(axis=0)), ("high", ys.max(axis=0)))]
+    return out
 
 
 def _decade_label(k: int) -> str:
@@ -1071,6 +1134,10 @@ def _blueprint(res, w: _Writer, reps: dict | None = None, active_tab: str = "Ove
         # the Overview: what every output keeps alike taken out (as the PNG time series), zoomed
         # to the methods; the errors as they are in the Errors tab
         shown = [_shown_path(w, x) for x in lst]
+        for root in dict.fromkeys(x.rsplit("/", 1)[0] for x in lst):
+            if root in w.sweeps:      # a sweep: its default's line and its members' envelope
+                skip, envelope = w.sweeps[root]
+                shown = [x for x in shown if x not in skip] + envelope
         kinds = sorted({w.shown[x.rsplit("/", 1)[0]] for x in lst
                         if x.rsplit("/", 1)[0] in w.shown})
         what = ("Error less raw's slow variation (no method removes it)"

@@ -24,7 +24,7 @@ from .fmt import (key_metric, KEY_METRICS, ci_text, decimation, fmt, md_table,  
                   metrics_table, p_better_text)
 from .io import atomic_write_bytes, atomic_write_text, run_arrays, save_figure as _save, versions  # noqa: E402
 from . import palette as PAL  # noqa: E402
-from .views import DWARF, kept_alike as _kept_alike, moving_mean as _moving_mean  # noqa: E402
+from .views import DWARF, kept_alike as _kept_alike, method_entries as _method_entries, moving_mean as _moving_mean, sweep_names as _sweep_names  # noqa: E402
 from .claim_figures import (SETUP_HEADING, draw_claim_figures, open_on_answer,  # noqa: E402
                             takeaway, verdict_link)
 from .outdir import as_final, check_out_dir, discard_part, new_part_dir, replace_dir  # noqa: E402
@@ -165,42 +165,6 @@ LEGEND = {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0), "fontsize": 8,
           "borderaxespad": 0.0}      # right of the data
 
 
-def _entries(labels: list[str], plan) -> list[dict]:
-    """The methods among ``labels`` as they are drawn, in families: a method alone, or the
-    members of a sweep (``MethodSpec.group``, a ``[[methods]]`` table with ``sweep``) as one
-    entry drawn as an envelope with its default (paper) setting's line.
-
-    Returns
-    -------
-    list of dict
-        ``group`` (the sweep's label, or None), ``members`` (labels), ``default`` (the label
-        drawn as a line: the member with ``paper_setting``, else the first).
-    """
-    specs = {m.label: m for m in getattr(plan, "methods", ())}
-    out, groups = [], {}
-    for lab in labels:
-        if lab in ("raw", "oracle"):
-            continue
-        m = specs.get(lab)
-        g = getattr(m, "group", None)
-        if g:
-            if g not in groups:
-                groups[g] = {"group": g, "members": [], "default": None}
-                out.append(groups[g])
-            groups[g]["members"].append(lab)
-            if getattr(m, "paper_setting", False) and groups[g]["default"] is None:
-                groups[g]["default"] = lab
-        else:
-            out.append({"group": None, "members": [lab], "default": lab})
-    for e in out:
-        e["default"] = e["default"] or e["members"][0]
-        if len(e["members"]) == 1:
-            e["group"] = None
-    pal = PAL.plan_styles(plan, labels)
-    fams = list(dict.fromkeys(pal[e["default"]].family for e in out))
-    return sorted(out, key=lambda e: fams.index(pal[e["default"]].family))
-
-
 def _chunks(entries: list[dict], capacity: int, plan=None) -> list[list[dict]]:
     """``entries`` (in family order) split into panels of at most ``capacity`` lines: each
     family whole into the first panel it fits in (first fit), a family larger than a panel
@@ -243,12 +207,11 @@ def _draw_entry(ax, x, curves: dict, e: dict, sty: dict, **kw):
     with warnings.catch_warnings():     # a tau no member reaches: NaN, not drawn
         warnings.simplefilter("ignore", RuntimeWarning)
         lo, hi = np.nanmin(stack, axis=0), np.nanmax(stack, axis=0)
+    default_name, envelope_name = _sweep_names(e)
     ax.fill_between(x, lo, hi, color=st["color"], alpha=0.3, lw=0, zorder=1.5,
-                    gid=f"envelope:{e['group']}",
-                    label=f"{e['group']}: {len(e['members'])} settings, best..worst")
-    setting = d[len(e["group"]) + 1:] if d.startswith(e["group"] + ".") else d
+                    gid=f"envelope:{e['group']}", label=envelope_name)
     st["ls"] = "-"
-    return ax.plot(x, curves[d], label=f"{e['group']} default ({setting})", **st)
+    return ax.plot(x, curves[d], label=default_name, **st)
 
 
 def _span(curves) -> tuple[float, float]:
@@ -300,7 +263,7 @@ def fig_timeseries(it, path: Path, plan=None) -> int:
     p = it.piece
     ts, tname = PAL.time_unit(float(p.t[-1]))
     labels = list(it.outputs)
-    entries = _entries(labels, plan)
+    entries = _method_entries(labels, plan)
     methods = [m for e in entries for m in e["members"]]
     errs = {lab: (it.outputs[lab] - p.truth) / DPH for lab in labels}
     kind, trend, k = _kept_alike(errs, methods)
@@ -409,7 +372,7 @@ def fig_dwells(it, path: Path, plan=None) -> None:
     each mean has its standard error as a bar, beyond that the means are joined by lines."""
     p = it.piece
     labels = list(it.outputs)
-    entries = _entries(labels, plan)
+    entries = _method_entries(labels, plan)
     methods = [m for e in entries for m in e["members"]]
     sty = _styles(labels, widest=1.6, thinnest=0.8, dashed_raw=False, plan=plan)
     _, truth_mean, _ = dwell_means(p.t, p.truth, p.fs)
@@ -509,7 +472,7 @@ def fig_psd(it, path: Path, plan=None):
         ints[lab] = M.psd_band_interval(s, edf, ALLAN_CI)
     lo, hi = _psd_ylim(curves)
     fixed = [lab for lab in ("raw", "oracle") if lab in labels]
-    panels = _chunks(_entries(labels, plan), MAX_LINES - len(fixed), plan)
+    panels = _chunks(_method_entries(labels, plan), MAX_LINES - len(fixed), plan)
     fig, axes = plt.subplots(len(panels), 1, figsize=(9.2, 0.8 + 3.9 * len(panels)),
                              sharex=True, sharey=True, squeeze=False)
     shown = {lab: np.where(s > 0, s, np.nan) for lab, s in curves.items()}
@@ -594,7 +557,7 @@ def fig_allan(it, path: Path, plan=None) -> bool:
                 if nm is not None and nm.in_model:
                     models.append((lab, nm))
     fixed = [lab for lab in ("raw", "oracle") if lab in labels]
-    panels = _chunks(_entries(labels, plan), MAX_LINES - len(fixed) - len(models), plan)
+    panels = _chunks(_method_entries(labels, plan), MAX_LINES - len(fixed) - len(models), plan)
     fig, axes = plt.subplots(len(panels), 1, figsize=(9.2, 0.8 + 4.0 * len(panels)),
                              sharex=True, sharey=True, squeeze=False)
     last = max((int(np.flatnonzero(k)[-1]) for k in keeps.values() if k.any()), default=0)
@@ -1255,7 +1218,7 @@ def _collapse_sweeps(labels: list[str], data: list, plan):
     """A sweep's members as one column: its default setting's values, labelled
     ``<sweep> (<n> settings)``, with the members' medians for a range mark; other labels as
     they are. Returns (labels, data, source labels, member medians or None)."""
-    entries = {m: e for e in _entries(labels, plan) for m in e["members"]}
+    entries = {m: e for e in _method_entries(labels, plan) for m in e["members"]}
     by = dict(zip(labels, data))
     out_l, out_d, src, ranges, done = [], [], [], [], set()
     for lab in labels:

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import palette as PAL
+
 DWARF = 3.0          # raw (oracle) gets its own panel (PNG), or is left off the zoom (viewer),
 #                      when an axis holding it and the methods' errors would span more than
 #                      this many times the methods' errors
@@ -76,3 +78,48 @@ def kept_alike(errs: dict, methods: list[str]):
     if alike(lambda e: e - moving_mean(e, k)):
         return "fast", None, k
     return None, None, k
+
+
+def method_entries(labels: list[str], plan) -> list[dict]:
+    """The methods among ``labels`` as they are drawn, in families: a method alone, or the
+    members of a sweep (``MethodSpec.group``, a ``[[methods]]`` table with ``sweep``) as one
+    entry drawn as an envelope with its default (paper) setting's line.
+
+    Returns
+    -------
+    list of dict
+        ``group`` (the sweep's label, or None), ``members`` (labels), ``default`` (the label
+        drawn as a line: the member with ``paper_setting``, else the first).
+    """
+    specs = {m.label: m for m in getattr(plan, "methods", ())}
+    out, groups = [], {}
+    for lab in labels:
+        if lab in ("raw", "oracle"):
+            continue
+        m = specs.get(lab)
+        g = getattr(m, "group", None)
+        if g:
+            if g not in groups:
+                groups[g] = {"group": g, "members": [], "default": None}
+                out.append(groups[g])
+            groups[g]["members"].append(lab)
+            if getattr(m, "paper_setting", False) and groups[g]["default"] is None:
+                groups[g]["default"] = lab
+        else:
+            out.append({"group": None, "members": [lab], "default": lab})
+    for e in out:
+        e["default"] = e["default"] or e["members"][0]
+        if len(e["members"]) == 1:
+            e["group"] = None
+    pal = PAL.plan_styles(plan, labels)
+    fams = list(dict.fromkeys(pal[e["default"]].family for e in out))
+    return sorted(out, key=lambda e: fams.index(pal[e["default"]].family))
+
+
+def sweep_names(e: dict) -> tuple[str, str]:
+    """The legend names of a sweep entry (:func:`method_entries`) drawn as its default
+    setting's line and its members' envelope: ``("<group> default (<setting>)", "<group>: <n>
+    settings, best..worst")``."""
+    d, g = e["default"], e["group"]
+    setting = d[len(g) + 1:] if d.startswith(g + ".") else d
+    return f"{g} default ({setting})", f"{g}: {len(e['members'])} settings, best..worst"

@@ -173,7 +173,7 @@ def test_viewer_and_png_give_a_label_the_same_colour(figs, tmp_path, path):
     assert R.fig_allan(it, tmp_path / "a.png", plan=plan)
     png = _png_colours(figs[-1])
     viewer = REC._method_colors(SimpleNamespace(plan=plan))
-    # a sweep is one envelope with its default setting's line (fogbench.report._entries)
+    # a sweep is one envelope with its default setting's line (fogbench.views.method_entries)
     shown = [m.label for m in plan.methods if not m.group or m.paper_setting]
     assert set(png) == {"raw", "oracle", *shown}
     for lab, c in png.items():

@@ -783,7 +783,8 @@ def test_legends_list_a_sweep_once_and_the_in_sample_methods_once(tmp_path):
     """The viewer's legend cuts off what does not fit a plot (paper000 opened without its WNN
     listed, paper002 without raw and oracle): the 4 settings of a sweep are one legend entry,
     and the methods of an in-sample protocol one entry, in the error view of a run scored by a
-    held-out and an in-sample protocol; the Allan legend lists the sweep once."""
+    held-out and an in-sample protocol; the Allan legend lists the sweep as its default
+    setting's line and its envelope, as the PNGs do."""
     (tmp_path / "swept.toml").write_text(SWEPT)
     res = run_scenario(tmp_path / "swept.toml")
     R.write_recording(res, tmp_path / "recording.rrd")
@@ -799,7 +800,9 @@ def test_legends_list_a_sweep_once_and_the_in_sample_methods_once(tmp_path):
     assert names == {"raw", "oracle", "wavelet_soft", "kalman", "wavelet_band (4 settings)",
                      "refit (in-sample): every method, lighter"}
     legend = _static_labels(rrd, "/report/allan/held_out/test_run/legend")
-    assert legend == ["raw", "oracle", "wavelet_soft", "kalman", "wavelet_band (4 settings)"]
+    assert legend == ["raw", "oracle", "wavelet_soft", "kalman",
+                      "wavelet_band default (level-3.threshold-universal)",
+                      "wavelet_band: 4 settings, best..worst"]
 
 
 def test_allan_and_psd_plots_beyond_a_tab_s_share_go_in_a_tab_per_protocol(tmp_path,
@@ -1100,3 +1103,70 @@ def test_the_overview_error_view_takes_out_raw_s_wander_and_zooms_to_the_methods
     methods = np.concatenate([shown[lab] for lab in labs if lab not in ("raw", "oracle")])
     assert lo <= methods.min() and methods.max() <= hi
     assert hi - lo < np.ptp(err["raw"])
+
+
+@pytest.mark.parametrize("preset, taken_out", [("low_grade", True), ("navigation", False)])
+def test_the_overview_error_view_draws_a_sweep_as_its_default_line_and_envelope(
+        tmp_path, preset, taken_out):
+    """A sweep of three wavelet levels (paper000's wavelet_band has 8 settings: 15 lines in
+    its Overview): the Overview's error view holds the default setting's line and the sweep's
+    envelope, not one line per member; the envelope is the pointwise best and worst of the
+    members' shown errors, read back from the Errors tab's series with the same curve taken
+    out (each member's error less the default's, plus the default's shown error). low_grade's
+    wander is taken out of that view; navigation's errors are shown as they are."""
+    text = TINY.replace('name = "rec_tiny"', 'name = "rec_swept"').replace(
+        'preset = "low_grade"', f'preset = "{preset}"') + """
+[[methods]]
+name = "wavelet_soft"
+label = "wband"
+sweep = { level = [2, 3, 4] }
+"""
+    (tmp_path / "swept.toml").write_text(text)
+    res = run_scenario(tmp_path / "swept.toml")
+    R.write_recording(res, tmp_path / "recording.rrd")
+    rrd = Rrd(tmp_path / "recording.rrd")
+    (it,) = res.scored
+    members = [lab for lab in it.outputs if lab.startswith("wband")]
+    assert len(members) == 3, list(it.outputs)
+    default = R.method_entries(list(it.outputs), res.plan)
+    (sweep,) = [e for e in default if e["group"] == "wband"]
+    def path(*parts):
+        return R._p("runs", it.run, "fog", *parts)       # the labels escaped as entity paths
+
+    err = {lab: rrd.scalars(path("error", it.protocol, lab))[1] for lab in members}
+    d = sweep["default"]
+    shown = "error_shown" if taken_out else "error"     # the view's series of the default
+    base = rrd.scalars(path(shown, it.protocol, d))[1] - err[d]  # what was taken out
+    want = np.vstack([err[m] + base for m in members])
+    env = [path("error_shown", it.protocol, "wband envelope", end) for end in ("low", "high")]
+    low, high = (rrd.scalars(x)[1] for x in env)
+    scale = float(np.ptp(want))
+    np.testing.assert_allclose(low, want.min(axis=0), atol=1e-5 * scale)
+    np.testing.assert_allclose(high, want.max(axis=0), atol=1e-5 * scale)
+    assert np.any(high - low > 1e-3 * scale)            # the members differ: a real envelope
+    props = _blueprint_props(rrd)
+    (view,) = [p for p, c in props.items()
+               if any(str(n).startswith("Error") and it.run in str(n)
+                      for n in c.get("ViewBlueprint:display_name") or [])
+               and not any("colours as in Overview" in str(n)
+                           for n in c.get("ViewBlueprint:display_name") or [])]
+    query = " ".join(props[f"{view}/ViewContents"]["ViewContents:query"])
+    for m in members:
+        assert (path(shown, it.protocol, m) in query) == (m == d), (m, query)
+        assert path("error_shown" if shown == "error" else "error", it.protocol, m) \
+            not in query
+    assert env[0] in query and env[1] in query, query
+    assert path(shown, it.protocol, "kalman") in query
+    # the Allan view likewise: the default's curve, and the envelope of the members' Allan
+    # deviations (allantools, drawn to 8 clusters as above); no other member's curve
+    root = f"/report/allan/{it.protocol}/{it.run}"
+    curves = []
+    for m in members:
+        taus, adev, _, _ = allantools.oadev((it.outputs[m] - it.piece.truth) / DPH,
+                                            rate=it.piece.fs, data_type="freq", taus="octave")
+        keep = [math.floor(it.piece.t.size / round(tau * it.piece.fs)) >= 8 for tau in taus]
+        curves.append(adev[keep])
+        assert (f"{root}/{R._p(m)[1:]}" in rrd.paths) == (m == d), m
+    for end, want in (("low", np.min(curves, axis=0)), ("high", np.max(curves, axis=0))):
+        xy = rrd.static_strips(f"{root}/{R._p(f'wband envelope {end}')[1:]}")[0]
+        np.testing.assert_allclose(10 ** xy[:, 1], want, rtol=1e-5)

@@ -378,12 +378,42 @@ def verdicts_section(mc: dict, fig_names: dict) -> list[str]:
 UNCHANGED_PCT = 0.05
 
 
+def _placed(labs: dict, imp: str) -> tuple[dict, list]:
+    """The methods' improvements ``imp`` placed by their intervals (groups of (sort key,
+    text)), and the oracles' texts."""
+    from .fmt import ci_text
+
+    groups: dict[str, list] = {"better": [], "not told apart from raw": [], "worse": [],
+                               f"unchanged (within {UNCHANGED_PCT} %)": []}
+    refs = []
+    for lab, mets in labs.items():
+        sm = mets.get(imp)
+        if lab == "raw" or not sm or not (sm.get("n") or sm.get("n_failed")):
+            continue
+        txt = f"{lab} {ci_text(sm, imp)}"
+        if lab.startswith("oracle"):
+            refs.append(txt)
+            continue
+        lo, hi = sm.get("ci_low"), sm.get("ci_high")
+        if lo is not None and hi is not None and max(abs(lo), abs(hi)) < UNCHANGED_PCT:
+            g = f"unchanged (within {UNCHANGED_PCT} %)"
+        else:
+            g = ("better" if lo is not None and lo > 0 else
+                 "worse" if hi is not None and hi < 0 else "not told apart from raw")
+        mean = sm.get("mean")
+        groups[g].append((math.inf if mean is None else -mean, txt))    # best first
+    return groups, refs
+
+
 def metric_takeaway(mc: dict, plan) -> str | None:
     """The top of a report without claims: per protocol (ideal-lab twins left out), the key
     metric's improvement over raw, each method placed by its interval over the replicates:
     better than raw (the interval above 0), worse (below 0) or not told apart; the oracles
-    beside them. None when no protocol has an improvement of a key metric."""
-    from .fmt import IMPROVEMENT_OF, ci_text, key_metric
+    beside them. Where every method leaves the key metric unchanged (a bias correction under
+    the 100 s bias stability, which a constant does not move), the RMSE's improvement too
+    (what `fogbench compare` ranks them on). None when no protocol has an improvement of a
+    key metric."""
+    from .fmt import IMPROVEMENT_OF, key_metric
 
     twins = {p.name for p in getattr(plan, "protocols", []) if getattr(p, "twin_of", None)}
     n_rep = mc.get("replicates")
@@ -392,33 +422,22 @@ def metric_takeaway(mc: dict, plan) -> str | None:
         if prot in twins:
             continue
         metric = key_metric(mc, prot, plan)
-        imp = IMPROVEMENT_OF.get(metric)
-        if imp is None:
-            continue
-        groups: dict[str, list] = {"better": [], "not told apart from raw": [], "worse": [],
-                                   f"unchanged (within {UNCHANGED_PCT} %)": []}
-        refs = []
-        for lab, mets in labs.items():
-            sm = mets.get(imp)
-            if lab == "raw" or not sm or not (sm.get("n") or sm.get("n_failed")):
+        todo = [metric]
+        while todo:
+            metric = todo.pop(0)
+            imp = IMPROVEMENT_OF.get(metric)
+            if imp is None:
                 continue
-            txt = f"{lab} {ci_text(sm, imp)}"
-            if lab.startswith("oracle"):
-                refs.append(txt)
+            groups, refs = _placed(labs, imp)
+            parts = [f"{g}: " + ", ".join(t for _, t in sorted(v))
+                     for g, v in groups.items() if v]
+            if not parts:
                 continue
-            lo, hi = sm.get("ci_low"), sm.get("ci_high")
-            if lo is not None and hi is not None and max(abs(lo), abs(hi)) < UNCHANGED_PCT:
-                g = f"unchanged (within {UNCHANGED_PCT} %)"
-            else:
-                g = ("better" if lo is not None and lo > 0 else
-                     "worse" if hi is not None and hi < 0 else "not told apart from raw")
-            mean = sm.get("mean")
-            groups[g].append((math.inf if mean is None else -mean, txt))    # best first
-        parts = [f"{g}: " + ", ".join(t for _, t in sorted(v)) for g, v in groups.items() if v]
-        if not parts:
-            continue
-        lines.append(f"- `{prot}`, {metric}: " + "; ".join(parts)
-                     + (f" (oracle: {', '.join(refs)})" if refs else ""))
+            lines.append(f"- `{prot}`, {metric}: " + "; ".join(parts)
+                         + (f" (oracle: {', '.join(refs)})" if refs else ""))
+            if metric != "rmse_dph" and len([g for g, v in groups.items() if v]) == 1 and \
+                    groups[f"unchanged (within {UNCHANGED_PCT} %)"]:
+                todo.append("rmse_dph")
     if not lines:
         return None
     over = f" over {n_rep} replicates" if n_rep else ""

@@ -215,6 +215,16 @@ def _figure_rows(rows: list[dict]) -> list[dict]:
     return out
 
 
+def _short_metric(metric: str) -> str:
+    """A row's metric as its label names it: ``improvement_rmse_pct`` -> ``rmse``,
+    ``improvement of std_dps over raw, %`` -> ``std_dps``."""
+    if metric.startswith("improvement of "):
+        return metric[len("improvement of "):].split(" over raw")[0]
+    if metric.startswith("improvement_") and metric.endswith("_pct"):
+        return metric[len("improvement_"):-len("_pct")]
+    return metric
+
+
 def _figure(rows: list[dict], path: str) -> None:
     """The methods' improvement over raw with its interval, a row each (ideal twins left
     out, a sweep as one row with its members' range), a band per scenario; filled: held out,
@@ -239,8 +249,9 @@ def _figure(rows: list[dict], path: str) -> None:
         group = (r["scenario"], r["protocol"])
         if scenarios.index(r["scenario"]) % 2 == 0:       # every other scenario shaded
             ax.axhspan(yi - 0.5, yi + 0.5, color="0.93", lw=0, zorder=0)
-        labels.append(f"{r['scenario']} / {r['protocol']}: {r['method']}" if group != last
-                      else r["method"])
+        # the first row of a protocol names its metric: the scenarios' headline metrics differ
+        labels.append(f"{r['scenario']} / {r['protocol']} [{_short_metric(r['metric'])}]: "
+                      f"{r['method']}" if group != last else r["method"])
         last = group
         face = "white" if r["in_sample"] else color
         if v.get("mean") is not None and v["mean"] < FLOOR_PCT:   # far worse than raw
@@ -270,8 +281,8 @@ def _figure(rows: list[dict], path: str) -> None:
     ax.set_ylim(-0.6, len(rows) - 0.4)
     ax.set_yticks(y)
     ax.set_yticklabels(labels, fontsize=6)
-    ax.set_xlabel("improvement over raw, % (headline metric): mean and 95 % interval over "
-                  "replicates", fontsize=8)
+    ax.set_xlabel("improvement over raw, % of the metric in [ ] (each scenario's headline "
+                  "metric): mean and 95 % interval over replicates", fontsize=8)
     handles = [Line2D([], [], marker="o", color=color, ls="", label="held out"),
                Line2D([], [], marker="o", color=color, mfc="white", ls="",
                       label="in-sample (fitted on what it is scored on)"),

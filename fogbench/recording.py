@@ -128,7 +128,14 @@ from fogcomp.units import DPH, DPS
 
 from . import palette as PAL
 from .fmt import decimation, fmt, md_table, metrics_table
-from .views import DWARF, kept_alike, method_entries, moving_mean, sweep_names
+from .views import (
+    DWARF,
+    kept_alike,
+    method_entries,
+    moving_mean,
+    offsets_only,
+    sweep_names,
+)
 
 __all__ = ["write_recording", "view", "blueprint_for", "ReplicatesError", "decimation",
            "MAX_SERIES_POINTS", "MAX_POSE_POINTS", "TIMELINE", "REPLICATE_TIMELINE",
@@ -511,6 +518,8 @@ def _log_piece(w: _Writer, key: str, it, colors, in_sample: bool,
     # where a sweep is its default's line and an envelope, the default is named as such (the
     # Errors tab keeps every member under the sweep's one name)
     as_default = {e["default"]: sweep_names(e)[0] for e in sweeps}
+    # outputs that are raw plus a constant: no Allan deviation or PSD (every curve on raw's)
+    spectra = not offsets_only(it)
     for lab, out in it.outputs.items():
         c = _piece_color(colors, lab, in_sample)
         name = _piece_name(as_default.get(lab, names.get(lab, lab)), in_sample)  # Allan, PSD
@@ -529,7 +538,7 @@ def _log_piece(w: _Writer, key: str, it, colors, in_sample: bool,
                 w.series(_p("runs", it.run, "fog", "error_shown", key, lab), p.t[s], shown[s],
                          _series_name(lab, in_sample, it.protocol, {**names, **as_default}),
                          c, width)
-        if p.raw.size >= 64:
+        if spectra and p.raw.size >= 64:
             try:
                 # intervals from the EDF of the noise type leading each tau (Greenhall & Riley)
                 ad = oadev_ci(err, p.fs, ci=CONFIDENCE)
@@ -541,7 +550,7 @@ def _log_piece(w: _Writer, key: str, it, colors, in_sample: bool,
                 if ok.sum() >= 2:
                     allan.append((lab, name, c, ad.taus[ok], ad.adev[ok], ad.low[ok],
                                   ad.high[ok]))
-        if p.raw.size >= 16:
+        if spectra and p.raw.size >= 16:
             try:
                 # as the PNGs: Welch averaged in log-spaced bands, each with its interval
                 f, pxx, edf = M.psd_bands(err, p.fs, per_decade=PAL.PSD_PER_DECADE)

@@ -24,7 +24,7 @@ from .fmt import (key_metric, KEY_METRICS, ci_text, decimation, fmt, md_table,  
                   metrics_table, p_better_text)
 from .io import atomic_write_bytes, atomic_write_text, run_arrays, save_figure as _save, versions  # noqa: E402
 from . import palette as PAL  # noqa: E402
-from .views import DWARF, kept_alike as _kept_alike, method_entries as _method_entries, moving_mean as _moving_mean, sweep_names as _sweep_names  # noqa: E402
+from .views import DWARF, SAME_FRACTION, kept_alike as _kept_alike, offsets_only, method_entries as _method_entries, moving_mean as _moving_mean, sweep_names as _sweep_names  # noqa: E402
 from .claim_figures import (SETUP_HEADING, draw_claim_figures, open_on_answer,  # noqa: E402
                             takeaway, verdict_link)
 from .outdir import as_final, check_out_dir, discard_part, new_part_dir, replace_dir  # noqa: E402
@@ -671,17 +671,29 @@ def _fit_runs(res: ScenarioResult, protocol: str) -> str:
     return ("run " if len(names) == 1 else "runs ") + ", ".join(names)
 
 
+def _coef_rows(res: ScenarioResult, protocol: str) -> list[tuple[str, str, dict]]:
+    """(run, label, metrics) of every output of ``protocol`` with fitted coefficients."""
+    return [(run, lab, m) for run, by_method in
+            res.metrics["protocols"][protocol]["runs"].items()
+            for lab, m in by_method.items() if isinstance(m, dict) and "coef_errors_dph" in m]
+
+
+def none_identified(res: ScenarioResult, protocol: str) -> bool:
+    """Whether ``protocol`` has fitted coefficients but no fit identified any one of them by
+    itself (``coef_identified`` empty: one static dwell determines one combination of the ten,
+    lab_references' bias_lab): a coefficients figure would be all hatching, so none is drawn."""
+    rows = _coef_rows(res, protocol)
+    return bool(rows) and all(m.get("coef_identified") is not None
+                              and not m["coef_identified"] for _, _, m in rows)
+
+
 def fig_coefficients(res: ScenarioResult, protocol: str, path: Path) -> bool:
     """Identified against true coefficients of the first scored run; coefficients a fit could
     not identify one by one (rank-deficient design) are hatched, clipped to the plot's range
-    and labelled instead of drawn at their arbitrary minimum-norm values."""
-    runs = res.metrics["protocols"][protocol]["runs"]
-    rows = []
-    for run, by_method in runs.items():
-        for lab, m in by_method.items():
-            if isinstance(m, dict) and "coef_errors_dph" in m:
-                rows.append((run, lab, m))
-    if not rows:
+    and labelled instead of drawn at their arbitrary minimum-norm values. Not drawn when no
+    coefficient was identified (:func:`none_identified`)."""
+    rows = _coef_rows(res, protocol)
+    if not rows or none_identified(res, protocol):
         return False
     run0 = rows[0][0]
     fig, ax = plt.subplots(figsize=(10, 4.8))
@@ -707,7 +719,9 @@ def fig_coefficients(res: ScenarioResult, protocol: str, path: Path) -> bool:
     for i, (lab, (est, ok)) in enumerate(ests.items()):
         c = _color(lab, list(ests), res.plan)
         xi = x + (i - (len(ests) - 1) / 2) * width
-        ax.bar(xi[ok], est[ok], width, alpha=0.75, color=c, label=lab)
+        ax.bar(xi[ok], est[ok], width, alpha=0.75, color=c)
+        # the legend key apart: with no identified bar there was no patch to take its colour
+        ax.bar([np.nan], [np.nan], width, alpha=0.75, color=c, label=lab)
         if (~ok).any():
             any_hidden = True
             clip = np.clip(est[~ok], -span, span)
@@ -805,9 +819,21 @@ def render_report(res: ScenarioResult, fig_names: dict, decimation: dict,
             L += [f"(No Allan deviation or PSD figure of {', '.join(stitched)}: each scored "
                   "piece is made of separate static dwells, scored by each dwell's mean error, "
                   "which neither can show; the dwell-means figures above show it.)", ""]
+        constant = [x.run for x in res.scored if x.protocol == prot.name
+                    and shows_time_structure(x.piece) and offsets_only(x)]
+        if constant:
+            L += [(f"(No Allan deviation or PSD figure of {', '.join(constant)}: every output "
+                   "differs from raw by a constant alone (to "
+                   f"{SAME_FRACTION:g} of raw's error span), which an Allan deviation cannot "
+                   "see and a PSD removes: they would draw every output on raw's curve. The "
+                   "time series and the tables show it.)"), ""]
         fn = fig_names.get((prot.name, None, "coefficients"))
         if fn:
             L += [_coef_table(res, prot.name), "", f"![coefficients]({fn})", ""]
+        elif none_identified(res, prot.name):
+            L += [("(No coefficients figure or table: no fit of this protocol identified any "
+                   "of the ten coefficients by itself; what it determines is a combination of "
+                   "them, which the bias it books and the errors above show.)"), ""]
         L += [_fit_notes(pd), ""]
     t1 = _table1_section(res)
     if t1:
@@ -822,7 +848,6 @@ def render_report(res: ScenarioResult, fig_names: dict, decimation: dict,
 SEGMENT_METRIC = "bias_stability_100s_dph"
 
 
-SAME_FRACTION = 1e-3  # an ideal twin's output this close to its lab protocol's: no own figures
 
 
 def same_as_lab(res: ScenarioResult) -> set[tuple[str, str]]:
@@ -1121,8 +1146,9 @@ def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_d
                                 tmp / "figures" / f"{base}__timeseries.png", res.plan) or 1
             if (tmp / "figures" / f"{base}__timeseries.png").exists():
                 fig_names[(it.protocol, it.run, "timeseries")] = f"figures/{base}__timeseries.png"
-            if not shows_time_structure(it.piece):
-                continue        # no Allan deviation or PSD of stitched dwells (the rule above)
+            if not shows_time_structure(it.piece) or offsets_only(it):
+                continue        # no Allan deviation or PSD of stitched dwells or of offsets
+
             figure(f"{base} PSD", fig_psd, it, tmp / "figures" / f"{base}__psd.png", res.plan)
             if (tmp / "figures" / f"{base}__psd.png").exists():
                 fig_names[(it.protocol, it.run, "psd")] = f"figures/{base}__psd.png"

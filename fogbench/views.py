@@ -24,6 +24,9 @@ TREND_CORR = 0.9     # ... taken out of every curve when every method keeps raw'
 #                      with raw's by >= this, its std within a factor 2: a wander no method
 #                      removes (denoisers) is not what the methods differ on
 TREND_TEST = 5
+SAME_FRACTION = 1e-3  # two outputs this close (of an error span) look the same: an ideal twin
+#                       like its lab protocol gets no own figures (fogbench.report.same_as_lab),
+#                       outputs that are raw plus a constant no Allan or PSD (offsets_only)
 
 
 def moving_mean(y: np.ndarray, k: int) -> np.ndarray:
@@ -123,3 +126,24 @@ def sweep_names(e: dict) -> tuple[str, str]:
     d, g = e["default"], e["group"]
     setting = d[len(g) + 1:] if d.startswith(g + ".") else d
     return f"{g} default ({setting})", f"{g}: {len(e['members'])} settings, best..worst"
+
+
+def offsets_only(it) -> bool:
+    """Whether every output of a scored piece differs from raw by a constant alone: each
+    output's error less its mean is raw's error less its mean to SAME_FRACTION of the span of
+    raw's error (a bias correction: switch_on_repeatability, lab_references' one-dwell bias).
+    An Allan deviation is blind to a constant and the PSD removes the mean, so both would draw
+    every output on raw's curve; neither is drawn, the time series and the tables show it."""
+    raw = it.outputs.get("raw")
+    if raw is None or len(it.outputs) < 2:
+        return False
+    e0 = (raw - it.piece.truth) - np.mean(raw - it.piece.truth)
+    span = float(np.ptp(e0))
+    if not np.isfinite(span) or span == 0.0:
+        return False
+    for out in it.outputs.values():
+        e = out - it.piece.truth
+        if not np.all(np.isfinite(e)) or \
+                float(np.max(np.abs(e - np.mean(e) - e0))) > SAME_FRACTION * span:
+            return False
+    return True

@@ -103,3 +103,25 @@ def test_the_figure_leaves_ideal_twins_to_the_table_and_draws_a_sweep_as_one_row
     sweep = fig_rows[1]
     assert sweep["value"]["mean"] == pytest.approx(9.0)  # the paper setting w.b's
     assert sweep["sweep"] == (pytest.approx(0.0), pytest.approx(9.0))
+
+
+def test_each_protocol_s_first_row_names_its_metric_in_the_figure(tmp_path, monkeypatch):
+    """compare.png put scenarios ranked on different headline metrics on one axis labelled
+    "headline metric" alone (lab_references' 64.7 % is of the RMSE, its report's 97.2 % of the
+    dwell means): the first row of each protocol names its metric."""
+    from fogbench import compare as C
+    from fogbench import io as IO
+
+    kept = []
+    monkeypatch.setattr(IO, "save_figure", lambda fig, path: kept.append(fig))
+    rows = []
+    for scen, metric in (("a", "improvement_rmse_pct"),
+                         ("b", "improvement of std_dps over raw, %")):
+        for m in ("k", "w"):
+            rows.append({"scenario": scen, "protocol": "p", "method": m, "metric": metric,
+                         "value": {"mean": 5.0, "ci_low": 4.0, "ci_high": 6.0},
+                         "in_sample": False, "failed": 0})
+    C._figure(rows, str(tmp_path / "c.png"))
+    labels = [t.get_text() for t in kept[0].axes[0].get_yticklabels()]
+    assert labels == ["a / p [rmse]: k", "w", "b / p [std_dps]: k", "w"]
+    assert "metric in [ ]" in kept[0].axes[0].get_xlabel()

@@ -60,3 +60,31 @@ def test_without_claims_the_takeaway_places_each_method_by_its_interval_against_
     # no key metric with an improvement: no takeaway
     assert metric_takeaway({"over_runs": {"p": {"raw": {"gm_tau_s": _s(1, 0, 2)}}}},
                            plan) is None
+
+
+def test_a_key_metric_every_method_leaves_unchanged_is_followed_by_the_rmse():
+    """lab_references' bias_lab opened on "unchanged" for every method: its key metric, the
+    100 s bias stability, cannot see the constant a bias fit removes. The RMSE's improvement
+    follows it (what `fogbench compare` ranks on); a protocol whose key metric tells the
+    methods apart gets no second line."""
+    from types import SimpleNamespace
+
+    from fogbench.claim_figures import metric_takeaway
+
+    def labs(stab, rmse):
+        out = {"raw": {"bias_stability_100s_dph": _s(1.0, 0.9, 1.1), "rmse_dph": _s(4.4, 4, 5)}}
+        for lab in ("bias_lstsq", "model_lstsq"):
+            out[lab] = {"bias_stability_100s_dph": _s(1.0, 0.9, 1.1),
+                        "improvement_bias_stability_pct": _s(*stab),
+                        "rmse_dph": _s(3.8, 3.5, 4.1), "improvement_rmse_pct": _s(*rmse)}
+        return out
+
+    plan = SimpleNamespace(claims=[], protocols=[SimpleNamespace(name="b", twin_of=None),
+                                                 SimpleNamespace(name="c", twin_of=None)])
+    mc = {"replicates": 20, "over_runs": {"b": labs((0.0, 0.0, 0.0), (14.0, 12.1, 16.0)),
+                                          "c": labs((30.0, 25.0, 35.0), (14.0, 12.1, 16.0))}}
+    lines = [x for x in metric_takeaway(mc, plan).splitlines() if x.startswith("- ")]
+    assert [x.split(":")[0] for x in lines] == [
+        "- `b`, bias_stability_100s_dph", "- `b`, rmse_dph", "- `c`, bias_stability_100s_dph"]
+    assert lines[0].startswith("- `b`, bias_stability_100s_dph: unchanged (within 0.05 %)")
+    assert lines[1].startswith("- `b`, rmse_dph: better: bias_lstsq 14.0 [12.1, 16.0]")

@@ -345,6 +345,70 @@ def test_allan_and_psd_of_stitched_dwells_are_neither_written_nor_linked(tmp_pat
     assert "No Allan deviation or PSD figure of b" in report
 
 
+def test_outputs_that_are_raw_plus_a_constant_get_no_allan_or_psd(tmp_path):
+    """A bias fit (model_lstsq, terms bias) scored on a hold: every output is raw less a
+    constant (the oracle too: no thermal program, a static table), so an Allan deviation or a
+    PSD would draw them all on raw's curve (lab_references' bias_lab drew five identical
+    curves): neither is written, the report says why. A denoiser on the same hold keeps both
+    (the stitched-dwells test above)."""
+    from types import SimpleNamespace
+
+    from fogbench.runner import run_scenario
+    from fogbench.views import offsets_only
+
+    path = tmp_path / "tiny.toml"
+    path.write_text(TINY_POSITIONS.replace('name = "wavelet_soft"',
+                                           'name = "model_lstsq"\nparams = { terms = ["bias"] }'))
+    res = run_scenario(path)
+    (c,) = [it for it in res.scored if it.run == "c" and it.protocol == "p"]
+    d = {lab: out - c.outputs["raw"] for lab, out in c.outputs.items()}
+    assert all(np.ptp(v) < 1e-9 * np.ptp(c.outputs["raw"]) for v in d.values()), d  # by hand
+    out = R.write_run_dir(res, tmp_path / "out", recording=False, save_data=False)
+    report = (out / "report.md").read_text()
+    for kind in ("psd", "allan"):
+        assert not (out / "figures" / f"p__c__{kind}.png").exists()
+    assert (out / "figures" / "p__c__timeseries.png").exists()
+    assert "No Allan deviation or PSD figure of c: every output differs from raw by a " \
+        "constant alone" in report
+    # the rule itself: a constant apart is offsets only, a ramp of 1 % of the span is not
+    rng = np.random.default_rng(0)
+    truth = np.zeros(1000)
+    raw = rng.normal(0, 1, 1000)
+    piece = SimpleNamespace(truth=truth)
+    assert offsets_only(SimpleNamespace(piece=piece, outputs={"raw": raw, "m": raw - 3.0}))
+    ramp = 0.01 * np.ptp(raw) * np.linspace(0, 1, 1000)
+    assert not offsets_only(SimpleNamespace(piece=piece, outputs={"raw": raw,
+                                                                  "m": raw - 3.0 + ramp}))
+
+
+def test_coefficient_bars_keep_their_colour_and_a_fit_with_none_identified_draws_none(figs):
+    """lab_references' bias_lab: a fit on one dwell identifies none of the ten coefficients; its
+    figure was all hatching, the legend key blue for gold bars (a key taken from no bar). Now:
+    each method's key is its bars' colour whether or not any bar is identified, and a
+    protocol where no fit identified any coefficient draws no figure (the report says why)."""
+    names = list(R.TERM_NAMES)
+    true = {n: float(k + 1) for k, n in enumerate(names)}
+
+    def rec(identified):
+        return {"coef_true_dph": true, "coef_errors_dph": {n: 0.1 for n in names},
+                "coef_identified": identified}
+
+    plan = SimpleNamespace(methods=(_spec("a", "flnn"), _spec("b", "model_lstsq")),
+                           protocols=())
+    res = SimpleNamespace(plan=plan, metrics={"protocols": {"p": {"runs": {"r1": {
+        "a": rec(names[:3]), "b": rec([])}}}}})
+    assert R.fig_coefficients(res, "p", "x.png")
+    ax = figs[-1].axes[0]
+    keys = dict(zip(*reversed(ax.get_legend_handles_labels())))
+    for lab in ("a", "b"):
+        want = R._color(lab, ["a", "b"], plan)
+        assert tuple(keys[lab].patches[0].get_facecolor()[:3]) == pytest.approx(want[:3]), lab
+    res.metrics["protocols"]["p"]["runs"]["r1"]["a"] = rec([])
+    assert R.none_identified(res, "p")
+    n = len(figs)
+    assert not R.fig_coefficients(res, "p", "x.png") and len(figs) == n
+
+
 def test_thermal_png_shows_a_scored_run_not_the_fit_run():
     prog = SimpleNamespace(steps=(1,))
     data = {"fit": SimpleNamespace(run=SimpleNamespace(thermal=prog)),

@@ -26,7 +26,7 @@ from .io import atomic_write_bytes, atomic_write_text, run_arrays, save_figure a
 from . import palette as PAL  # noqa: E402
 from .views import DWARF, SAME_FRACTION, kept_alike as _kept_alike, offsets_only, method_entries as _method_entries, moving_mean as _moving_mean, sweep_names as _sweep_names  # noqa: E402
 from .claim_figures import (SETUP_HEADING, draw_claim_figures, open_on_answer,  # noqa: E402
-                            takeaway, verdict_link)
+                            takeaway, unit_of, verdict_link)
 from .outdir import as_final, check_out_dir, discard_part, new_part_dir, replace_dir  # noqa: E402
 from .runner import ScenarioResult, TERM_NAMES, thermal_segments, write_metrics  # noqa: E402
 
@@ -364,17 +364,23 @@ def fig_timeseries(it, path: Path, plan=None) -> int:
 DWELL_BARS_MAX = 40      # dwells: above this many, means as lines without error bars
 
 
+DWELL_MARKERS = ("o", "^", "v", "P", "X", "h")   # a family's members, in member order
+
+
 def fig_dwells(it, path: Path, plan=None) -> None:
     """A multi-position test, per dwell in time order, deg/h: the raw dwell means over the true
     rate (the positions); raw's and the oracle's dwell-mean error; then the methods'
     dwell-mean errors zoomed to them (the oracle beside them unless it dwarfs them), at most
     TS_METHOD_LINES methods a panel, whole families together. Up to DWELL_BARS_MAX dwells
-    each mean has its standard error as a bar, beyond that the means are joined by lines."""
+    each mean has its standard error as a bar, beyond that the means are joined by lines. The
+    members of a method family share its hue and differ in marker (DWELL_MARKERS): paper004's
+    flnn_recorded and flnn_shuffled were two dark greens of one dot."""
     p = it.piece
     labels = list(it.outputs)
     entries = _method_entries(labels, plan)
     methods = [m for e in entries for m in e["members"]]
     sty = _styles(labels, widest=1.6, thinnest=0.8, dashed_raw=False, plan=plan)
+    member = {lab: st.member for lab, st in PAL.plan_styles(plan, labels).items()}
     _, truth_mean, _ = dwell_means(p.t, p.truth, p.fs)
     k = truth_mean.size
     x = np.arange(1, k + 1)
@@ -395,7 +401,8 @@ def fig_dwells(it, path: Path, plan=None) -> None:
 
     def draw(ax, lab, y, se, dx=0.0):
         kw = dict(color=sty[lab]["color"], zorder=sty[lab]["zorder"],
-                  marker={"raw": "D", "oracle": "s"}.get(lab, "o"),
+                  marker={"raw": "D", "oracle": "s"}.get(lab) or
+                  DWELL_MARKERS[member.get(lab, 0) % len(DWELL_MARKERS)],
                   mfc="none" if lab == "raw" else sty[lab]["color"], label=lab)
         if bars:
             ax.errorbar(x + dx, y, yerr=se, ms=4, capsize=2, elinewidth=0.8, ls="none", **kw)
@@ -1312,7 +1319,8 @@ def _fig_distributions(res: ScenarioResult, mc: dict, path: Path, panel) -> bool
                 extra(ax, i, lab)
         ax.set_xticks(range(len(shown)), shown, rotation=35, ha="right", fontsize=8,
                       rotation_mode="anchor")
-        ax.set_ylabel(metric, fontsize=9)
+        unit = unit_of(metric)
+        ax.set_ylabel(metric if unit == "as the metric" else f"{metric}, {unit}", fontsize=9)
         flag = " (in-sample)" if prot.in_sample else ""
         ax.set_title(f"{prot.name}{flag}: {title}", fontsize=9)
         if metric.endswith("_dph") and all(d.size and np.all(d > 0) for d in data):

@@ -238,6 +238,23 @@ def test_many_dwells_are_joined_lines_without_bars(figs, tmp_path, monkeypatch):
             np.testing.assert_allclose(ln.get_ydata(), tmean / DPH, rtol=1e-9)
 
 
+def test_members_of_one_family_differ_in_marker_in_the_dwell_figure(figs, tmp_path):
+    """paper004's flnn_recorded and flnn_shuffled (one family: two greens 30 % apart) were the
+    same dot: each member of a family has its own marker; raw and oracle keep theirs."""
+    from types import SimpleNamespace
+
+    it, fs = _dwell_item()
+    it.outputs["flnn_b"] = it.outputs["flnn"] + 0.2 * DPH
+    spec = (lambda lab: SimpleNamespace(label=lab, name="flnn", group=None,
+                                         paper_setting=False, setting={}, params={}))
+    plan = SimpleNamespace(methods=(spec("flnn"), spec("flnn_b")))
+    R.fig_timeseries(it, tmp_path / "t.png", plan)
+    marker = {c.get_label(): c.lines[0].get_marker() for ax in figs[-1].axes[1:]
+              for c in ax.containers if isinstance(c, ErrorbarContainer)}
+    assert marker["raw"] == "D" and marker["oracle"] == "s"
+    assert marker["flnn"] != marker["flnn_b"], marker
+
+
 def _thermal_res():
     from sim.thermal import ThermalHold, ThermalProgram, ThermalRamp, TempSensor, ThermalModel, \
         simulate_thermal

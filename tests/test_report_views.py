@@ -445,6 +445,7 @@ def test_replicate_distributions_show_a_sweep_once_and_wrap_panels_three_a_row(f
     for ax in shown:
         ticks = [t.get_text() for t in ax.get_xticklabels()]
         assert ticks == ["raw", "kalman", "wnn", "band\n(4 settings)"], ticks
+        assert ax.get_ylabel() == "rmse_dph, deg/h"      # the unit, not the key alone
         # the members' medians' range, by hand
         (bar,) = [c for c in ax.collections if c.get_label().startswith("a sweep's members")]
         ys = bar.get_segments()[0][:, 1]

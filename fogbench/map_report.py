@@ -71,6 +71,7 @@ def fig_map(map_doc: dict, k: int, path: Path) -> bool:
     vals = c["points"]
     if not any(v is not None and v.get("mean") is not None for v in vals):
         return False
+    used = set()        # the verdict colours drawn: the legend lists those alone
     if len(axes) == 1:
         fig, ax = plt.subplots(figsize=(max(5.0, 1.3 * len(pts) + 2.5), 4.2))
         x = np.arange(len(pts))
@@ -81,6 +82,7 @@ def fig_map(map_doc: dict, k: int, path: Path) -> bool:
             if v is None or v.get("mean") is None:
                 continue
             col = verdict_color({**v, "max_pct": v.get("max_pct", c.get("max_pct"))})
+            used.add(col)
             err = [[v["mean"] - (v["ci_low"] if v["ci_low"] is not None else v["mean"])],
                    [(v["ci_high"] if v["ci_high"] is not None else v["mean"]) - v["mean"]]]
             ax.errorbar([i], [v["mean"]], yerr=err, fmt="o", color=col, ms=7 if p["base"] else 5,
@@ -101,7 +103,7 @@ def fig_map(map_doc: dict, k: int, path: Path) -> bool:
         ax.set_ylabel(textwrap.fill(f"improvement of {c['better']} over {c['than']}, % "
                                     f"({c['metric']})", 42), fontsize=8)
         handles = [plt.Line2D([], [], marker="o", ls="none", color=col, label=v)
-                   for v, col in LEGEND]
+                   for v, col in LEGEND if col in used]
         handles.append(plt.Line2D([], [], marker="_", ms=12, mew=2, ls="none", color="0.45",
                                   label="oracle"))
         ax.legend(handles=[*ax.get_legend_handles_labels()[0], *handles], fontsize=7,
@@ -116,7 +118,9 @@ def fig_map(map_doc: dict, k: int, path: Path) -> bool:
         for v, p in zip(vals, pts):
             i, j = p["index"]
             if v is not None:
-                img[i, j] = to_rgb(verdict_color({**v, "max_pct": c.get("max_pct")}, "#ffffff"))
+                col = verdict_color({**v, "max_pct": c.get("max_pct")}, "#ffffff")
+                used.add(col)
+                img[i, j] = to_rgb(col)
                 txt = f"{_num(v['mean'])} %\n[{_num(v['ci_low'])}, {_num(v['ci_high'])}]"
                 if v.get("oracle_mean") is not None and v.get("oracle_bounds"):
                     txt += f"\noracle {_num(v['oracle_mean'])} %"
@@ -131,7 +135,7 @@ def fig_map(map_doc: dict, k: int, path: Path) -> bool:
         ax.set_xlabel(axes[1]["name"])
         ax.set_ylabel(axes[0]["name"])
         handles = [plt.Line2D([], [], marker="s", ls="none", color=col, label=v)
-                   for v, col in LEGEND]
+                   for v, col in LEGEND if col in used]
         ax.legend(handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     # wrapped to the figure's width (paper000's claims ran off both sides, into the y label)
     width_in = fig.get_size_inches()[0]

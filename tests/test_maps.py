@@ -402,4 +402,7 @@ def test_a_map_figure_s_long_claim_and_label_stay_inside_it_apart(tmp_path, monk
     for what, bb in (("title", title), ("y label", ylab)):
         assert box.x0 <= bb.x0 and bb.x1 <= box.x1 and bb.y1 <= box.y1, what
     assert not title.overlaps(ylab)
+    # the legend lists the verdicts drawn (all three points agree), not all five
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == [
+        "claimed: >= 50 %", "agrees", "oracle"]
     plt.close(fig)

@@ -132,8 +132,8 @@ from .views import (
     DWARF,
     kept_alike,
     method_entries,
-    moving_mean,
     offsets_only,
+    shown_error,
     sweep_names,
 )
 
@@ -532,7 +532,7 @@ def _log_piece(w: _Writer, key: str, it, colors, in_sample: bool,
         err = errs[lab]
         members_shown[lab] = err
         if kind is not None:
-            shown = err - trend if kind == "trend" else moving_mean(err, kw)
+            shown = shown_error(kind, err, trend, kw)
             members_shown[lab] = shown
             if lab not in in_envelope:
                 w.series(_p("runs", it.run, "fog", "error_shown", key, lab), p.t[s], shown[s],
@@ -1049,6 +1049,8 @@ def _y_axis_zoomed(w: _Writer, paths: list[str]):
         return _y_axis_with_headroom(w, paths), []
     lo, hi = min(a for a, _ in methods), max(b for _, b in methods)
     width = max(hi - lo, 1e-300)
+    if width < PAL.MIN_SPAN[PAL.ERROR_UNIT]:    # the methods alike: nothing to zoom to
+        return _y_axis_with_headroom(w, paths), []
     off = []
     for x in refs:
         rr_ = ranges([x])
@@ -1152,7 +1154,10 @@ def _blueprint(res, w: _Writer, reps: dict | None = None, active_tab: str = "Ove
         what = ("Error less raw's slow variation (no method removes it)"
                 if kinds and all(kd == "trend" for kd, _ in kinds) else
                 f"Error, {kinds[0][1]}-sample moving mean (every method keeps raw's fast noise)"
-                if len(kinds) == 1 else
+                if len(kinds) == 1 and kinds[0][0] == "fast" else
+                f"Error, {kinds[0][1]}-sample moving mean less raw's slow variation (every "
+                "method keeps raw's noise; what differs is constant)"
+                if len(kinds) == 1 and kinds[0][0] == "both" else
                 "Error (less what every method keeps alike)" if kinds else "Error vs truth")
         axis, off = _y_axis_zoomed(w, shown)
         note = f"; {' and '.join(off)} off this scale" if off else ""

@@ -24,7 +24,7 @@ from .fmt import (key_metric, KEY_METRICS, ci_text, decimation, fmt, md_table,  
                   metrics_table, p_better_text)
 from .io import atomic_write_bytes, atomic_write_text, run_arrays, save_figure as _save, versions  # noqa: E402
 from . import palette as PAL  # noqa: E402
-from .views import DWARF, SAME_FRACTION, kept_alike as _kept_alike, offsets_only, method_entries as _method_entries, moving_mean as _moving_mean, sweep_names as _sweep_names  # noqa: E402
+from .views import DWARF, SAME_FRACTION, kept_alike as _kept_alike, offsets_only, method_entries as _method_entries, moving_mean as _moving_mean, shown_error as _shown_error, sweep_names as _sweep_names  # noqa: E402
 from .claim_figures import (SETUP_HEADING, draw_claim_figures, open_on_answer,  # noqa: E402
                             takeaway, unit_of, verdict_link)
 from .outdir import as_final, check_out_dir, discard_part, new_part_dir, replace_dir  # noqa: E402
@@ -267,12 +267,7 @@ def fig_timeseries(it, path: Path, plan=None) -> int:
     methods = [m for e in entries for m in e["members"]]
     errs = {lab: (it.outputs[lab] - p.truth) / DPH for lab in labels}
     kind, trend, k = _kept_alike(errs, methods)
-    if kind == "trend":
-        shown = {lab: e - trend for lab, e in errs.items()}
-    elif kind == "fast":
-        shown = {lab: _moving_mean(e, k) for lab, e in errs.items()}
-    else:
-        shown = errs
+    shown = {lab: _shown_error(kind, e, trend, k) for lab, e in errs.items()}
     (t, truth, raw_out, *dec), step = _decimate(p.t / ts, p.truth, p.raw,
                                                 *[shown[lab] for lab in labels])
     cur = dict(zip(labels, dec))
@@ -286,8 +281,10 @@ def fig_timeseries(it, path: Path, plan=None) -> int:
     width = hi - lo
 
     def dwarfs(lab):        # the axis holding it and the methods spans DWARF x the methods'
-        a, b = _span([cur[lab]])
-        return bool(methods) and max(b, hi) - min(a, lo) > DWARF * max(width, 1e-300)
+        a, b = _span([cur[lab]])   # (methods within the unit's minimum span of each other,
+        #                            bias_lab's three equal bias fits: nothing to zoom to)
+        return bool(methods) and width >= PAL.MIN_SPAN[PAL.ERROR_UNIT] and \
+            max(b, hi) - min(a, lo) > DWARF * max(width, 1e-300)
 
     big = [lab for lab in ("raw", "oracle") if lab in cur and dwarfs(lab)]
     fixed = [lab for lab in ("raw", "oracle") if lab in cur and lab not in big]
@@ -321,19 +318,22 @@ def fig_timeseries(it, path: Path, plan=None) -> int:
         if kind is not None and "raw" in errs:
             ax.plot(t, _moving_mean(errs["raw"], k)[::step], color="black", lw=1.2, zorder=9,
                     label=f"raw's {k}-sample moving mean"
-                          + ("; less its mean, taken out below" if kind == "trend"
-                             else "; below, each curve's"))
+                          + {"trend": "; less its mean, taken out below",
+                             "both": "; below, each curve's, less this about its mean"}.get(
+                                 kind, "; below, each curve's"))
         ax.set_ylabel(f"error, {PAL.ERROR_UNIT}", fontsize=9)
         _min_span(ax, PAL.ERROR_UNIT)
         ax.legend(**LEGEND)
     pad = 0.05 * max(width, 1e-12)
-    what = {"trend": "error - raw's trend", "fast": f"error, {k}-sample mean"}.get(
-        kind, "error vs truth")
+    what = {"trend": "error - raw's trend", "fast": f"error, {k}-sample mean",
+            "both": "moving mean - raw's trend"}.get(kind, "error vs truth")
     dt = k / p.fs
     note = {"trend": "; raw's slow variation about its mean taken out of every curve: no "
                      "method removes it",
             "fast": f"; {k}-sample ({dt:.3g} s) moving means: every method keeps raw's faster "
-                    "noise"}.get(kind, "")
+                    "noise",
+            "both": f"; {k}-sample ({dt:.3g} s) moving means less raw's slow variation: every "
+                    "method keeps raw's noise, what differs is constant"}.get(kind, "")
     for i, (chunk, is_loud) in enumerate(panels):
         ax = axes[i]
         for lab in fixed:

@@ -55,6 +55,11 @@ def kept_alike(errs: dict, methods: list[str]):
       left after the k-sample moving mean correlates with raw's by >= TREND_CORR, std within a
       factor 2): every curve is drawn as its k-sample moving mean.
     - ``None``: the methods differ in both; errors are drawn as they are.
+
+    - ``"both"``: every method keeps both (each is raw less about a constant: a bias
+      correction; lab_references' bias_lab, whose 2 deg/h lay under +-10 deg/h of white noise
+      with raw's trend taken out): every curve is drawn as its k-sample moving mean less raw's
+      trend about its mean (returned), which leaves each output's constant apart.
     """
     raw = errs.get("raw")
     if raw is None or not methods or raw.size < 20:
@@ -74,13 +79,29 @@ def kept_alike(errs: dict, methods: list[str]):
                 return False
         return True
 
-    if alike(lambda e: moving_mean(e, TREND_TEST * k)):
-        # its variation only: a method that removes raw's constant part (a bias) keeps its own
-        # level (lab_references: 2 deg/h of bias removed, drawn at -2 deg/h when raw's mean went)
-        return "trend", moving_mean(raw, k) - float(np.mean(raw)), k
-    if alike(lambda e: e - moving_mean(e, k)):
+    slow = alike(lambda e: moving_mean(e, TREND_TEST * k))
+    fast = alike(lambda e: e - moving_mean(e, k))
+    # raw's variation only: a method that removes raw's constant part (a bias) keeps its own
+    # level (lab_references: 2 deg/h of bias removed, drawn at -2 deg/h when raw's mean went)
+    trend = moving_mean(raw, k) - float(np.mean(raw))
+    if slow and fast:
+        return "both", trend, k
+    if slow:
+        return "trend", trend, k
+    if fast:
         return "fast", None, k
     return None, None, k
+
+
+def shown_error(kind: str | None, err: np.ndarray, trend, k: int) -> np.ndarray:
+    """An error as the methods' panels draw it, by :func:`kept_alike`'s ``kind``."""
+    if kind == "trend":
+        return err - trend
+    if kind == "fast":
+        return moving_mean(err, k)
+    if kind == "both":
+        return moving_mean(err, k) - trend
+    return err
 
 
 def method_entries(labels: list[str], plan) -> list[dict]:

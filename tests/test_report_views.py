@@ -236,7 +236,10 @@ def test_a_wander_no_denoiser_removes_is_taken_out_of_every_curve(figs, tmp_path
 def test_a_bias_the_methods_remove_under_the_trend_stays_visible(figs, tmp_path):
     """lab_references: the methods remove a 2 deg/h bias but keep raw's slow variation; taking
     raw's whole trend out drew them at -2 deg/h under a caption saying no method removes it.
-    Only raw's variation about its mean is taken out: the methods sit near 0, raw near +2."""
+    Only raw's variation about its mean is taken out: the methods sit near 0, raw near +2. They
+    keep raw's fast noise too, so each curve is drawn as its moving mean (less raw's trend):
+    near constants (bias_lab's 2 deg/h lay under +-10 deg/h of noise when only the trend was
+    taken out)."""
     n, fs = 2000, 100.0
     rng = np.random.default_rng(5)
     truth = np.zeros(n)
@@ -250,8 +253,29 @@ def test_a_bias_the_methods_remove_under_the_trend_stays_visible(figs, tmp_path)
     for lab in ("kalman", "wnn"):
         ln = next(ln for ax in fig.axes for ln in ax.get_lines() if ln.get_label() == lab)
         assert abs(float(np.mean(ln.get_ydata()))) < 0.2, lab     # its own level: ~0
+        assert float(np.std(ln.get_ydata())) < 0.2, lab           # a near constant
     title = " ".join(ax.get_title() for ax in fig.axes)
-    assert "about its mean" in title
+    assert "moving means less raw's slow variation" in title, title
+
+
+def test_methods_that_do_not_differ_keep_raw_and_oracle_on_their_axis(figs, tmp_path):
+    """lab_references' bias_lab: three fits book the same bias, so the methods' zoom spanned
+    nothing and raw (2 deg/h above) and the oracle were left off it as dwarfing them: one flat
+    line, no comparison. Methods within the unit's minimum span (0.01 deg/h) of each other are
+    no zoom: raw, the oracle and the methods share the panel, raw 2 deg/h above them."""
+    n, fs = 2000, 10.0
+    rng = np.random.default_rng(6)
+    truth = np.zeros(n)
+    noise = rng.standard_normal(n) * 5.0 * DPH
+    raw = truth + 2.3 * DPH + noise
+    outs = {"raw": raw, "oracle": truth + noise, "kalman": raw - 2.0 * DPH,
+            "wnn": raw - 2.0 * DPH}
+    R.fig_timeseries(_item(outs, truth, fs), tmp_path / "t.png", plan=_plan())
+    ax = figs[-1].axes[-1]
+    mean = {ln.get_label(): float(np.mean(ln.get_ydata())) for ln in ax.get_lines()}
+    assert {"raw", "oracle", "kalman", "wnn"} <= set(mean), mean
+    assert mean["raw"] - mean["kalman"] == pytest.approx(2.0, abs=0.05)
+    assert mean["kalman"] - mean["oracle"] == pytest.approx(0.3, abs=0.05)
 
 
 def test_a_fast_noise_no_drift_model_removes_is_averaged_out(figs, tmp_path):

@@ -15,8 +15,8 @@ $(STAMP): pyproject.toml
 run: $(STAMP)
 	$(BIN)/fogbench suite --out reports
 
-# Two pytest-xdist workers, each test's time stealable (--dist worksteal); tests/conftest.py
-# holds each worker to one BLAS thread. Serial: add -p no:xdist (or -n 0).
+# Two pytest-xdist workers (--dist worksteal: an idle worker takes queued tests from the
+# other); tests/conftest.py holds each worker to one BLAS thread. Serially: make test XDIST=
 XDIST := -n 2 --dist worksteal
 
 test: $(STAMP)

@@ -71,7 +71,7 @@ def fig_map(map_doc: dict, k: int, path: Path) -> bool:
     vals = c["points"]
     if not any(v is not None and v.get("mean") is not None for v in vals):
         return False
-    used = set()        # the verdict colours drawn: the legend lists those alone
+    used = set()        # the verdict colours (and the oracle) drawn: the legend lists those
     if len(axes) == 1:
         fig, ax = plt.subplots(figsize=(max(5.0, 1.3 * len(pts) + 2.5), 4.2))
         x = np.arange(len(pts))
@@ -89,6 +89,7 @@ def fig_map(map_doc: dict, k: int, path: Path) -> bool:
                         capsize=4, mec="k" if p["base"] else col)
             if v.get("oracle_mean") is not None and v.get("oracle_bounds"):
                 ax.plot([i + 0.18], [v["oracle_mean"]], marker="_", ms=12, mew=2, color="0.45")
+                used.add("oracle")
         ax.set_xticks(x)
         ax.set_xticklabels([p["labels"][0] + ("\n(the scenario)" if p["base"] else "")
                             for p in pts], fontsize=8)
@@ -104,8 +105,9 @@ def fig_map(map_doc: dict, k: int, path: Path) -> bool:
                                     f"({c['metric']})", 42), fontsize=8)
         handles = [plt.Line2D([], [], marker="o", ls="none", color=col, label=v)
                    for v, col in LEGEND if col in used]
-        handles.append(plt.Line2D([], [], marker="_", ms=12, mew=2, ls="none", color="0.45",
-                                  label="oracle"))
+        if "oracle" in used:
+            handles.append(plt.Line2D([], [], marker="_", ms=12, mew=2, ls="none",
+                                      color="0.45", label="oracle"))
         ax.legend(handles=[*ax.get_legend_handles_labels()[0], *handles], fontsize=7,
                   loc="upper left", bbox_to_anchor=(1.01, 1.0))
         ax.grid(True, axis="y", alpha=0.3)

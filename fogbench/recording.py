@@ -31,7 +31,7 @@ a protocol scores the same run more than once; `<label>`: `raw`, `oracle` or a m
 | `/runs/<run>/fog/raw` | raw FOG output, deg/s |
 | `/runs/<run>/fog/compensated/<protocol>/<label>` | output of a scored piece (raw, oracle, each method), deg/s |
 | `/runs/<run>/fog/error/<protocol>/<label>` | that output minus the truth, deg/h |
-| `/runs/<run>/fog/error_shown/<protocol>/<label>` | the same with what every output keeps alike taken out (`fogbench.views.kept_alike`, as the PNG time series): raw's slow variation about its mean under a wander no method removes, or each curve's moving mean under fast noise every method keeps; only for pieces that have such a thing; the Overview shows these, the Errors tab the errors as they are, deg/h; a sweep's members other than its default are only in its envelope (next row) |
+| `/runs/<run>/fog/error_shown/<protocol>/<label>` | the same with what every output keeps alike taken out (`fogbench.views.kept_alike`, as the PNG time series): raw's slow variation about its mean under a wander no method removes, or each curve's moving mean under fast noise every method keeps; only for pieces that have such a thing or a sweep (then the errors as they are, the sweep's default named as such); the Overview shows these, the Errors tab the errors as they are, deg/h; a sweep's members other than its default are only in its envelope (next row) |
 | `/runs/<run>/fog/error_shown/<protocol>/<sweep> envelope/{low,high}` | a sweep's envelope in the Overview's error view: the lowest and highest of its members' shown errors at each time (their errors as they are where a piece takes nothing out), deg/h |
 | `/runs/<run>/fog/error_terms/<term>` | each simulated error term (`FogOutput.terms`), deg/h |
 | `/runs/<run>/table/tilt_deg`, `tilt_cmd_deg` | tilt angle and its command, deg |
@@ -47,6 +47,7 @@ a protocol scores the same run more than once; `<label>`: `raw`, `oracle` or a m
 | `/report/allan/<protocol>/<run>/<label>` | overlapping Allan deviation of (output - truth): a line strip of points (log10 tau in s, log10 ADEV in deg/h), static; up to the longest tau with at least 8 non-overlapping clusters |
 | `/report/allan/<protocol>/<run>/<label>/ci` | its 68.3 % confidence interval at every tau: one vertical segment per tau, same coordinates |
 | `/report/psd/<protocol>/<run>`, `.../<label>` | the same for the Welch PSD of (output - truth), mean removed, averaged in 10 bands a decade (``fogcomp.metrics.psd_bands``, as the PNGs): (log10 f/Hz, log10 PSD/((deg/h)^2/Hz)), and `/ci` its interval per band |
+| `/report/{allan,psd}/<protocol>/<run>/<sweep> envelope low`, `... high` | a sweep's members but its default as their lowest and highest curve (every x a member reaches; thin, no intervals); where every output is raw plus a constant (``fogbench.views.offsets_only``) only raw's curve is logged |
 | `/replicates/<protocol>/<metric>/<label>` | with Monte Carlo replicates: the metric of each replicate on the sequence timeline `replicate` (points) |
 | `/replicates/summary` | the distribution of every replicated metric: median, 5-95 % range, finite replicates, one table per protocol and metric, the headline metrics first (markdown, static) |
 | `/report/replicates/<metric>` | a dot plot of a headline metric over the replicates (static, 2-D view origin), a column per protocol: `names` (a row per label, named left of the columns), `title`; `<protocol>/axes` (grid, tick labels, the protocol's name), `<protocol>/<label>` the dots, one per replicate, at (value or its log10, row) under the transform onto the column, `<protocol>/<label>/range` its 5-95 % bar and median tick (`.../off_scale`: the note of a label drawn off scale) |
@@ -518,8 +519,9 @@ def _log_piece(w: _Writer, key: str, it, colors, in_sample: bool,
     # where a sweep is its default's line and an envelope, the default is named as such (the
     # Errors tab keeps every member under the sweep's one name)
     as_default = {e["default"]: sweep_names(e)[0] for e in sweeps}
-    # outputs that are raw plus a constant: no Allan deviation or PSD (every curve on raw's)
-    spectra = not offsets_only(it)
+    # outputs that are raw plus a constant: the Allan deviation and PSD of raw alone (every
+    # other curve would lie on raw's), as in the PNGs
+    spectra = {"raw"} if offsets_only(it) else set(it.outputs)
     for lab, out in it.outputs.items():
         c = _piece_color(colors, lab, in_sample)
         name = _piece_name(as_default.get(lab, names.get(lab, lab)), in_sample)  # Allan, PSD
@@ -530,15 +532,14 @@ def _log_piece(w: _Writer, key: str, it, colors, in_sample: bool,
         w.series(_p("runs", it.run, "fog", "error", key, lab), p.t[s],
                  (out[s] - p.truth[s]) / DPH, sname, c, width)
         err = errs[lab]
-        members_shown[lab] = err
-        if kind is not None:
+        if kind is not None or sweeps:    # (a sweep's default is named as such there)
             shown = shown_error(kind, err, trend, kw)
             members_shown[lab] = shown
             if lab not in in_envelope:
                 w.series(_p("runs", it.run, "fog", "error_shown", key, lab), p.t[s], shown[s],
                          _series_name(lab, in_sample, it.protocol, {**names, **as_default}),
                          c, width)
-        if spectra and p.raw.size >= 64:
+        if lab in spectra and p.raw.size >= 64:
             try:
                 # intervals from the EDF of the noise type leading each tau (Greenhall & Riley)
                 ad = oadev_ci(err, p.fs, ci=CONFIDENCE)
@@ -550,7 +551,7 @@ def _log_piece(w: _Writer, key: str, it, colors, in_sample: bool,
                 if ok.sum() >= 2:
                     allan.append((lab, name, c, ad.taus[ok], ad.adev[ok], ad.low[ok],
                                   ad.high[ok]))
-        if spectra and p.raw.size >= 16:
+        if lab in spectra and p.raw.size >= 16:
             try:
                 # as the PNGs: Welch averaged in log-spaced bands, each with its interval
                 f, pxx, edf = M.psd_bands(err, p.fs, per_decade=PAL.PSD_PER_DECADE)
@@ -563,20 +564,17 @@ def _log_piece(w: _Writer, key: str, it, colors, in_sample: bool,
     envelope = []
     for e in sweeps:
         stack = np.vstack([members_shown[m][s] for m in e["members"]])
-        c = _tint(_piece_color(colors, e["default"], in_sample), 0.35)
-        name = _series_name(e["default"], in_sample, it.protocol, {}) if in_sample else \
-            sweep_names(e)[1]
+        c, name = _envelope_style(e, colors, in_sample, it.protocol, series=True)
         with warnings.catch_warnings():     # a time no member has: NaN, not drawn
             warnings.simplefilter("ignore", RuntimeWarning)
             ends = {"low": np.nanmin(stack, axis=0), "high": np.nanmax(stack, axis=0)}
         for end, y in ends.items():
-            path = _p("runs", it.run, "fog", "error_shown", key, f"{e['group']} envelope", end)
+            path = _p("runs", it.run, "fog", "error_shown", key, f"{e['group']} {ENVELOPE}", end)
             w.series(path, p.t[s], y, name, c, 1.0)
             envelope.append(path)
-    if sweeps:       # the members the Overview leaves to the envelope, as it lists them
+    if sweeps:       # the members the Overview leaves to the envelope
         w.sweeps[_p("runs", it.run, "fog", "error", key)] = (
-            {_p("runs", it.run, "fog", "error_shown" if kind else "error", key, m)
-             for m in in_envelope}, envelope)
+            {_p("runs", it.run, "fog", "error_shown", key, m) for m in in_envelope}, envelope)
     allan, psd = (_sweeps_as_envelopes(curves, sweeps, colors, in_sample, it.protocol)
                   for curves in (allan, psd))
     if allan:
@@ -604,17 +602,28 @@ def _sweeps_as_envelopes(curves: list, sweeps: list, colors, in_sample: bool,
             continue
         xs = have[0][3]
         for c in have[1:]:
-            xs = np.intersect1d(xs, c[3])
+            xs = np.union1d(xs, c[3])           # every x a member reaches (the PNG's nanmin)
+        ys = np.full((len(have), xs.size), np.nan)
+        for row, c in zip(ys, have):
+            row[np.searchsorted(xs, c[3])] = c[4]
+        color, name = _envelope_style(e, colors, in_sample, protocol, series=False)
         out = [c for c in out if c[0] not in e["members"] or c[0] == e["default"]]
-        if xs.size < 2:
-            continue
-        ys = np.vstack([np.interp(xs, c[3], c[4]) for c in have])   # at points they all have
-        color = _tint(_piece_color(colors, e["default"], in_sample), 0.35)
-        name = _series_name(e["default"], in_sample, protocol, {}) if in_sample else \
-            sweep_names(e)[1]
-        out += [(f"{e['group']} envelope {end}", name, color, xs, y, None, None)
-                for end, y in (("low", ys.min(axis=0)), ("high", ys.max(axis=0)))]
+        out += [(f"{e['group']} {ENVELOPE} {end}", name, color, xs, y, None, None)
+                for end, y in (("low", np.nanmin(ys, axis=0)), ("high", np.nanmax(ys, axis=0)))]
     return out
+
+
+ENVELOPE = "envelope"     # a sweep's envelope: paths ``<sweep> envelope/low``, ``.../high``
+
+
+def _envelope_style(e: dict, colors, in_sample: bool, protocol: str, series: bool):
+    """(colour, legend name) of sweep ``e``'s envelope lines: its default's colour, lighter;
+    ``"<sweep>: <n> settings, best..worst"``, or, in-sample, a time series' shared in-sample
+    name (``series``) or that name marked in-sample (Allan and PSD plots)."""
+    color = _tint(_piece_color(colors, e["default"], in_sample), 0.35)
+    if in_sample and series:
+        return color, _series_name(e["default"], in_sample, protocol, {})
+    return color, _piece_name(sweep_names(e)[1], in_sample)
 
 
 def _decade_label(k: int) -> str:
@@ -678,7 +687,8 @@ def _loglog(w: _Writer, root: str, curves, xlabel: str, ylabel: str, note: str) 
                                                draw_order=1.0), static=True)
     for i, (lab, name, c, x, y, lo, hi) in enumerate(curves):
         path = f"{root}/{w.rr.escape_entity_path_part(lab)}"
-        width = 4.0 if lab == "raw" else 1.5
+        width = 4.0 if lab == "raw" else 0.75 if lab.endswith((f"{ENVELOPE} low",
+                                                              f"{ENVELOPE} high")) else 1.5
         rec.log(path, tf, static=True)
         rec.log(path, rr.LineStrips2D([np.column_stack([np.log10(x),
                                                         np.maximum(np.log10(y), y0)])],
@@ -1027,10 +1037,11 @@ def _y_axis_with_headroom(w: _Writer, paths: list[str]):
 
 
 def _shown_path(w: _Writer, path: str) -> str:
-    """The Overview's series of an error path: the one with what every output keeps alike
-    taken out (``.../fog/error_shown/...``) where the piece has one, else the path itself."""
+    """The Overview's series of an error path: ``.../fog/error_shown/...`` where the piece has
+    something every output keeps alike taken out, or a sweep (its default named as such, the
+    errors as they are), else the path itself."""
     root, lab = path.rsplit("/", 1)
-    if root not in w.shown:
+    if root not in w.shown and root not in w.sweeps:
         return path
     head, key = root.rsplit("/", 1)
     return f"{head[:-len('error')]}error_shown/{key}/{lab}"
@@ -1156,7 +1167,7 @@ def _blueprint(res, w: _Writer, reps: dict | None = None, active_tab: str = "Ove
                 f"Error, {kinds[0][1]}-sample moving mean (every method keeps raw's fast noise)"
                 if len(kinds) == 1 and kinds[0][0] == "fast" else
                 f"Error, {kinds[0][1]}-sample moving mean less raw's slow variation (every "
-                "method keeps raw's noise; what differs is constant)"
+                "method keeps raw's noise, fast and slow)"
                 if len(kinds) == 1 and kinds[0][0] == "both" else
                 "Error (less what every method keeps alike)" if kinds else "Error vs truth")
         axis, off = _y_axis_zoomed(w, shown)

@@ -6,6 +6,7 @@ Figures are drawn with matplotlib's Agg backend. Long records are decimated for 
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import math
 from pathlib import Path
@@ -333,7 +334,7 @@ def fig_timeseries(it, path: Path, plan=None) -> int:
             "fast": f"; {k}-sample ({dt:.3g} s) moving means: every method keeps raw's faster "
                     "noise",
             "both": f"; {k}-sample ({dt:.3g} s) moving means less raw's slow variation: every "
-                    "method keeps raw's noise, what differs is constant"}.get(kind, "")
+                    "method keeps raw's noise, fast and slow"}.get(kind, "")
     for i, (chunk, is_loud) in enumerate(panels):
         ax = axes[i]
         for lab in fixed:
@@ -826,17 +827,20 @@ def render_report(res: ScenarioResult, fig_names: dict, decimation: dict,
             L += [f"(No Allan deviation or PSD figure of {', '.join(stitched)}: each scored "
                   "piece is made of separate static dwells, scored by each dwell's mean error, "
                   "which neither can show; the dwell-means figures above show it.)", ""]
-        constant = [x.run for x in res.scored if x.protocol == prot.name
-                    and shows_time_structure(x.piece) and offsets_only(x)]
+        constant = list(dict.fromkeys(      # (where those figures were drawn)
+            x.run for x in res.scored if x.protocol == prot.name
+            and {(prot.name, x.run, "psd"), (prot.name, x.run, "allan")} & set(fig_names)
+            and offsets_only(x)))
         if constant:
-            L += [(f"(No Allan deviation or PSD figure of {', '.join(constant)}: every output "
-                   "differs from raw by a constant alone (to "
+            L += [(f"(The Allan deviation and PSD of {', '.join(constant)} are raw's alone: "
+                   "every output differs from raw by a constant (to "
                    f"{SAME_FRACTION:g} of raw's error span), which an Allan deviation cannot "
-                   "see and a PSD removes: they would draw every output on raw's curve. The "
-                   "time series and the tables show it.)"), ""]
+                   "see and a PSD removes, so each would lie on raw's curve; the tables show "
+                   "the constants.)"), ""]
         fn = fig_names.get((prot.name, None, "coefficients"))
-        if fn:
-            L += [_coef_table(res, prot.name), "", f"![coefficients]({fn})", ""]
+        if _coef_rows(res, prot.name) and not none_identified(res, prot.name):
+            L += [_coef_table(res, prot.name), ""] + ([f"![coefficients]({fn})", ""] if fn
+                                                      else [])
         elif none_identified(res, prot.name):
             L += [("(No coefficients figure or table: no fit of this protocol identified any "
                    "of the ten coefficients by itself; what it determines is a combination of "
@@ -1153,9 +1157,10 @@ def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_d
                                 tmp / "figures" / f"{base}__timeseries.png", res.plan) or 1
             if (tmp / "figures" / f"{base}__timeseries.png").exists():
                 fig_names[(it.protocol, it.run, "timeseries")] = f"figures/{base}__timeseries.png"
-            if not shows_time_structure(it.piece) or offsets_only(it):
-                continue        # no Allan deviation or PSD of stitched dwells or of offsets
-
+            if not shows_time_structure(it.piece):
+                continue        # no Allan deviation or PSD of stitched dwells (the rule above)
+            if offsets_only(it):  # the others would lie on raw's curve: raw (its noise) alone
+                it = dataclasses.replace(it, outputs={"raw": it.outputs["raw"]})
             figure(f"{base} PSD", fig_psd, it, tmp / "figures" / f"{base}__psd.png", res.plan)
             if (tmp / "figures" / f"{base}__psd.png").exists():
                 fig_names[(it.protocol, it.run, "psd")] = f"figures/{base}__psd.png"

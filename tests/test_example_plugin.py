@@ -8,6 +8,7 @@ from __future__ import annotations
 import importlib.util
 import json
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -23,9 +24,14 @@ FOGBENCH = Path(sys.executable).with_name("fogbench")
 
 @pytest.fixture(scope="module")
 def installed(tmp_path_factory):
+    """The package installed from a copy: pip builds a local folder in place (``build/``,
+    ``*.egg-info``), which wrote into the repository and, with two pytest-xdist workers each
+    running this fixture, into the same folder at once."""
+    source = tmp_path_factory.mktemp("src") / PACKAGE.name
+    shutil.copytree(PACKAGE, source, ignore=shutil.ignore_patterns("build", "*.egg-info"))
     target = tmp_path_factory.mktemp("site")
     cmd = [sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--target",
-           str(target), str(PACKAGE)]
+           str(target), str(source)]
     if all(importlib.util.find_spec(m) is not None for m in ("setuptools", "wheel")):
         cmd.insert(4, "--no-build-isolation")   # the test extras' backend: no download needed
     done = subprocess.run(cmd, capture_output=True, text=True, timeout=600)

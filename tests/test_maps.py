@@ -406,3 +406,9 @@ def test_a_map_figure_s_long_claim_and_label_stay_inside_it_apart(tmp_path, monk
     assert [t.get_text() for t in ax.get_legend().get_texts()] == [
         "claimed: >= 50 %", "agrees", "oracle"]
     plt.close(fig)
+    # no oracle tick drawn (its bound not the claim's): no oracle key either
+    claim["points"] = [{**pt, "oracle_bounds": False}] * 3
+    assert MR.fig_map(doc, 0, tmp_path / "m.png")
+    assert [t.get_text() for t in kept[-1].axes[0].get_legend().get_texts()] == [
+        "claimed: >= 50 %", "agrees"]
+    plt.close(kept[-1])

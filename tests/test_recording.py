@@ -1135,8 +1135,9 @@ sweep = { level = [2, 3, 4] }
 
     err = {lab: rrd.scalars(path("error", it.protocol, lab))[1] for lab in members}
     d = sweep["default"]
-    shown = "error_shown" if taken_out else "error"     # the view's series of the default
+    shown = "error_shown"                     # the view's series, taken out or as they are
     base = rrd.scalars(path(shown, it.protocol, d))[1] - err[d]  # what was taken out
+    assert (float(np.ptp(base)) > 0) == taken_out
     want = np.vstack([err[m] + base for m in members])
     env = [path("error_shown", it.protocol, "wband envelope", end) for end in ("low", "high")]
     low, high = (rrd.scalars(x)[1] for x in env)
@@ -1153,8 +1154,11 @@ sweep = { level = [2, 3, 4] }
     query = " ".join(props[f"{view}/ViewContents"]["ViewContents:query"])
     for m in members:
         assert (path(shown, it.protocol, m) in query) == (m == d), (m, query)
-        assert path("error_shown" if shown == "error" else "error", it.protocol, m) \
-            not in query
+        assert path("error", it.protocol, m) not in query
+    # the default's line is named as the default, as in the PNGs (the Errors tab keeps the
+    # sweep's one name for every member)
+    assert _static_names(rrd, path(shown, it.protocol, d)) == [
+        f"wband default ({d[len('wband.'):]})"]
     assert env[0] in query and env[1] in query, query
     assert path(shown, it.protocol, "kalman") in query
     # the Allan view likewise: the default's curve, and the envelope of the members' Allan

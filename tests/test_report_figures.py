@@ -243,11 +243,11 @@ def test_members_of_one_family_differ_in_marker_in_the_dwell_figure(figs, tmp_pa
     same dot: each member of a family has its own marker; raw and oracle keep theirs."""
     from types import SimpleNamespace
 
-    it, fs = _dwell_item()
+    it, _ = _dwell_item()
     it.outputs["flnn_b"] = it.outputs["flnn"] + 0.2 * DPH
-    spec = (lambda lab: SimpleNamespace(label=lab, name="flnn", group=None,
-                                         paper_setting=False, setting={}, params={}))
-    plan = SimpleNamespace(methods=(spec("flnn"), spec("flnn_b")))
+    plan = SimpleNamespace(methods=tuple(
+        SimpleNamespace(label=lab, name="flnn", group=None, paper_setting=False, setting={},
+                        params={}) for lab in ("flnn", "flnn_b")))
     R.fig_timeseries(it, tmp_path / "t.png", plan)
     marker = {c.get_label(): c.lines[0].get_marker() for ax in figs[-1].axes[1:]
               for c in ax.containers if isinstance(c, ErrorbarContainer)}

@@ -369,12 +369,12 @@ def test_allan_and_psd_of_stitched_dwells_are_neither_written_nor_linked(tmp_pat
     assert "No Allan deviation or PSD figure of b" in report
 
 
-def test_outputs_that_are_raw_plus_a_constant_get_no_allan_or_psd(tmp_path):
+def test_outputs_that_are_raw_plus_a_constant_get_raw_s_allan_and_psd_alone(tmp_path, figs):
     """A bias fit (model_lstsq, terms bias) scored on a hold: every output is raw less a
     constant (the oracle too: no thermal program, a static table), so an Allan deviation or a
     PSD would draw them all on raw's curve (lab_references' bias_lab drew five identical
-    curves): neither is written, the report says why. A denoiser on the same hold keeps both
-    (the stitched-dwells test above)."""
+    curves): both show raw alone (its noise), the report says why. A denoiser on the same hold
+    keeps every curve (the stitched-dwells test above)."""
     from types import SimpleNamespace
 
     from fogbench.runner import run_scenario
@@ -387,13 +387,19 @@ def test_outputs_that_are_raw_plus_a_constant_get_no_allan_or_psd(tmp_path):
     (c,) = [it for it in res.scored if it.run == "c" and it.protocol == "p"]
     d = {lab: out - c.outputs["raw"] for lab, out in c.outputs.items()}
     assert all(np.ptp(v) < 1e-9 * np.ptp(c.outputs["raw"]) for v in d.values()), d  # by hand
-    out = R.write_run_dir(res, tmp_path / "out", recording=False, save_data=False)
-    report = (out / "report.md").read_text()
-    for kind in ("psd", "allan"):
-        assert not (out / "figures" / f"p__c__{kind}.png").exists()
-    assert (out / "figures" / "p__c__timeseries.png").exists()
-    assert "No Allan deviation or PSD figure of c: every output differs from raw by a " \
-        "constant alone" in report
+    R.write_run_dir(res, tmp_path / "out", recording=False, save_data=False)
+    report = (tmp_path / "out" / "report.md").read_text()
+    assert "The Allan deviation and PSD of c are raw's alone: every output differs from raw " \
+        "by a constant" in report
+    spectra = []
+    for fig in figs:      # piece c of protocol p's PSD and Allan figures: "p / c: PSD ..."
+        title = " ".join(ax.get_title() for ax in fig.axes)
+        if title.startswith("p / c: ") and ("PSD" in title or "Allan" in title):
+            spectra.append({ln.get_label() for ax in fig.axes for ln in ax.get_lines()
+                            if not ln.get_label().startswith("_")})
+    assert len(spectra) == 2, spectra
+    for labs in spectra:
+        assert "raw" in labs and "oracle" not in labs and "model_lstsq" not in labs, labs
     # the rule itself: a constant apart is offsets only, a ramp of 1 % of the span is not
     rng = np.random.default_rng(0)
     truth = np.zeros(1000)

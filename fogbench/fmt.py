@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["KEY_METRICS", "IMPROVEMENT_OF", "fmt", "md_table", "decimation", "ci_text", "p_better_text", "key_metric",
-           "metrics_table"]
+__all__ = ["KEY_METRICS", "IMPROVEMENT_OF", "fmt", "md_table", "decimation", "ci_text",
+           "p_better_text", "key_metric", "metrics_table"]
 
 KEY_METRICS = ("std_dps", "rmse_dph", "drift_rms_dph", "bias_stability_100s_dph",
                "angle_error_final_deg", "coef_rms_error_dph", "arw_deg_rt_h",

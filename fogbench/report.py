@@ -25,7 +25,9 @@ from .fmt import (key_metric, KEY_METRICS, ci_text, decimation, fmt, md_table,  
                   metrics_table, p_better_text)
 from .io import atomic_write_bytes, atomic_write_text, run_arrays, save_figure as _save, versions  # noqa: E402
 from . import palette as PAL  # noqa: E402
-from .views import DWARF, SAME_FRACTION, kept_alike as _kept_alike, offsets_only, method_entries as _method_entries, moving_mean as _moving_mean, shown_error as _shown_error, sweep_names as _sweep_names  # noqa: E402
+from .views import (DWARF, SAME_FRACTION, kept_alike as _kept_alike,  # noqa: E402
+                    method_entries as _method_entries, moving_mean as _moving_mean,
+                    offsets_only, shown_error as _shown_error, sweep_names as _sweep_names)
 from .claim_figures import (SETUP_HEADING, draw_claim_figures, open_on_answer,  # noqa: E402
                             takeaway, unit_of, verdict_link)
 from .outdir import as_final, check_out_dir, discard_part, new_part_dir, replace_dir  # noqa: E402
@@ -363,8 +365,6 @@ def fig_timeseries(it, path: Path, plan=None) -> int:
 
 
 DWELL_BARS_MAX = 40      # dwells: above this many, means as lines without error bars
-
-
 DWELL_MARKERS = ("o", "^", "v", "P", "X", "h")   # a family's members, in member order
 
 
@@ -838,10 +838,11 @@ def render_report(res: ScenarioResult, fig_names: dict, decimation: dict,
                    "see and a PSD removes, so each would lie on raw's curve; the tables show "
                    "the constants.)"), ""]
         fn = fig_names.get((prot.name, None, "coefficients"))
-        if _coef_rows(res, prot.name) and not none_identified(res, prot.name):
+        nothing = none_identified(res, prot.name)
+        if _coef_rows(res, prot.name) and not nothing:
             L += [_coef_table(res, prot.name), ""] + ([f"![coefficients]({fn})", ""] if fn
                                                       else [])
-        elif none_identified(res, prot.name):
+        elif nothing:
             L += [("(No coefficients figure or table: no fit of this protocol identified any "
                    "of the ten coefficients by itself; what it determines is a combination of "
                    "them, which the bias it books and the errors above show.)"), ""]
@@ -857,8 +858,6 @@ def render_report(res: ScenarioResult, fig_names: dict, decimation: dict,
 
 
 SEGMENT_METRIC = "bias_stability_100s_dph"
-
-
 
 
 def same_as_lab(res: ScenarioResult) -> set[tuple[str, str]]:

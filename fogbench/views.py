@@ -54,12 +54,11 @@ def kept_alike(errs: dict, methods: list[str]):
     - ``"fast"``: every method keeps raw's fast error (a drift model under white noise: what is
       left after the k-sample moving mean correlates with raw's by >= TREND_CORR, std within a
       factor 2): every curve is drawn as its k-sample moving mean.
-    - ``None``: the methods differ in both; errors are drawn as they are.
-
     - ``"both"``: every method keeps both (each is raw less about a constant: a bias
       correction; lab_references' bias_lab, whose 2 deg/h lay under +-10 deg/h of white noise
       with raw's trend taken out): every curve is drawn as its k-sample moving mean less raw's
       trend about its mean (returned), which leaves each output's constant apart.
+    - ``None``: the methods differ in both; errors are drawn as they are.
     """
     raw = errs.get("raw")
     if raw is None or not methods or raw.size < 20:
@@ -154,7 +153,7 @@ def offsets_only(it) -> bool:
     output's error less its mean is raw's error less its mean to SAME_FRACTION of the span of
     raw's error (a bias correction: switch_on_repeatability, lab_references' one-dwell bias).
     An Allan deviation is blind to a constant and the PSD removes the mean, so both would draw
-    every output on raw's curve; neither is drawn, the time series and the tables show it."""
+    every output on raw's curve: the PNGs and the recording draw raw's alone."""
     raw = it.outputs.get("raw")
     if raw is None or len(it.outputs) < 2:
         return False

@@ -1066,6 +1066,17 @@ def test_view_says_when_it_handed_the_file_to_a_viewer_already_running(tmp_path,
     assert "already running" in out and str(tmp_path / "recording.rrd") in out
 
 
+def _overview_error_view(rrd, run: str):
+    """(blueprint properties, the Overview's error view of ``run``, its contents query)."""
+    props = _blueprint_props(rrd)
+    (view,) = [p for p, c in props.items()
+               if any(str(n).startswith("Error") and run in str(n)
+                      for n in c.get("ViewBlueprint:display_name") or [])
+               and not any("colours as in Overview" in str(n)
+                           for n in c.get("ViewBlueprint:display_name") or [])]
+    return props, view, " ".join(props[f"{view}/ViewContents"]["ViewContents:query"])
+
+
 def test_the_overview_error_view_takes_out_raw_s_wander_and_zooms_to_the_methods(tiny):
     """paper000-like: low_grade's 0.16 deg/s Gauss-Markov drift is a wander every denoiser keeps.
     The Overview shows the errors with one curve taken out of all of them (so the paired
@@ -1090,13 +1101,7 @@ def test_the_overview_error_view_takes_out_raw_s_wander_and_zooms_to_the_methods
         return np.convolve(y, np.ones(k) / k, mode="valid")
     assert np.std(slow(shown["raw"])) < 0.3 * np.std(slow(err["raw"]))
     # the Overview's error view lists the shown series, and its y range holds the methods'
-    props = _blueprint_props(rrd)
-    (view,) = [p for p, c in props.items()
-               if any(str(n).startswith("Error") and it.run in str(n)
-                      for n in c.get("ViewBlueprint:display_name") or [])
-               and not any("colours as in Overview" in str(n)
-                           for n in c.get("ViewBlueprint:display_name") or [])]
-    query = " ".join(props[f"{view}/ViewContents"]["ViewContents:query"])
+    props, view, query = _overview_error_view(rrd, it.run)
     assert f"error_shown/{it.protocol}/kalman" in query, query
     (rng,) = props[f"{view}/ScalarAxis"]["ScalarAxis:range"]
     lo, hi = rng.values() if isinstance(rng, dict) else rng
@@ -1145,13 +1150,7 @@ sweep = { level = [2, 3, 4] }
     np.testing.assert_allclose(low, want.min(axis=0), atol=1e-5 * scale)
     np.testing.assert_allclose(high, want.max(axis=0), atol=1e-5 * scale)
     assert np.any(high - low > 1e-3 * scale)            # the members differ: a real envelope
-    props = _blueprint_props(rrd)
-    (view,) = [p for p, c in props.items()
-               if any(str(n).startswith("Error") and it.run in str(n)
-                      for n in c.get("ViewBlueprint:display_name") or [])
-               and not any("colours as in Overview" in str(n)
-                           for n in c.get("ViewBlueprint:display_name") or [])]
-    query = " ".join(props[f"{view}/ViewContents"]["ViewContents:query"])
+    _, _, query = _overview_error_view(rrd, it.run)
     for m in members:
         assert (path(shown, it.protocol, m) in query) == (m == d), (m, query)
         assert path("error", it.protocol, m) not in query

@@ -628,7 +628,20 @@ def thermal_run(res: ScenarioResult) -> str:
     return next(iter(res.data))
 
 
+STEADY_FRACTION = 0.1    # thermal.png's loop: |dT/dt| below this fraction of the run's largest
+#                          (100 s means) is "steady", neither heating nor cooling
+
+
 def fig_thermal(res: ScenarioResult, run: str, path: Path) -> bool:
+    """The thermal run ``run``: top left, the chamber program, the FOG's node temperatures and
+    the sensor reading, with the coil's dT/dt; bottom left, the raw bias (raw output less the
+    truth, 100 s means, deg/h) against time; bottom right, the same bias against the
+    temperature a lab reads (the sensor, 100 s means; the true coil temperature where the run
+    has no sensor), each point coloured by the coil's dT/dt: heating, cooling or steady
+    (|dT/dt| under STEADY_FRACTION of the run's largest). The loop this draws is the part of
+    the bias a model in temperature alone cannot fit: the Shupe term in dT/dt (the heating and
+    cooling branches sit apart by about twice its coefficient times the ramp rate) and the
+    sensor's lag behind the coil."""
     rd = res.data[run]
     if rd.run.thermal is None or not rd.run.thermal.steps:
         return False
@@ -639,32 +652,61 @@ def fig_thermal(res: ScenarioResult, run: str, path: Path) -> bool:
     bias = M.smooth(rd.fog.raw[:, j] - rd.truth_axis(j), rd.fs, 100.0) / DPH
     th = rd.thermal
     th_h = rd.truth.t / ts
-    fig, axes = plt.subplots(2, 1, figsize=(10, 6.5), sharex=True)
-    ax = axes[0]
+    fig = plt.figure(figsize=(13.5, 6.5))
+    gs = fig.add_gridspec(2, 2, width_ratios=(2.3, 1.0), wspace=0.22, hspace=0.12)
+    ax = fig.add_subplot(gs[0, 0])
+    ax_b = fig.add_subplot(gs[1, 0], sharex=ax)
+    ax_l = fig.add_subplot(gs[1, 1], sharey=ax_b)
+    ax_key = fig.add_subplot(gs[0, 1])
+    ax_key.axis("off")
     ax.plot(th_h, th.chamber, color="tab:blue", lw=1.4, label="chamber")
     if th.housing is not None and not np.array_equal(th.housing, th.chamber):
         ax.plot(th_h, th.housing, color="tab:purple", lw=2.6, alpha=0.6, label="housing")
     ax.plot(th_h, th.coil, color="tab:orange", lw=1.6, label="coil (true)")
-    if th.sensor is not None and not np.array_equal(th.sensor, th.coil):
+    has_sensor = th.sensor is not None and not np.array_equal(th.sensor, th.coil)
+    if has_sensor:
         ax.plot(th_h, th.sensor, color="black", lw=0.8, ls=":", label="sensor reading")
     ax.set_ylabel("temperature, deg C")
     _min_span(ax, "deg C")
+    ax.tick_params(labelbottom=False)
     ax2 = ax.twinx()
     ax2.plot(th_h, th.coil_rate * 60, color="tab:red", lw=0.8, label="coil dT/dt (right axis)")
     ax2.set_ylabel("coil dT/dt, deg C/min")
     _min_span(ax2, "deg C/min")
-    h1, l1 = ax.get_legend_handles_labels()
-    h2, l2 = ax2.get_legend_handles_labels()
-    ax.legend(h1 + h2, l1 + l2, **{**LEGEND, "bbox_to_anchor": (1.1, 1.0)})  # past ax2's label
     scored = sorted({it.protocol for it in getattr(res, "scored", ()) if run in it.run.split("+")})
     ax.set_title(f"{run}" + (f" (scored by {', '.join(scored)})" if scored else "")
                  + ": chamber program, FOG temperatures and raw bias", fontsize=10)
-    axes[1].plot(t, bias, lw=0.8, color="0.4",
-                 label=f"raw output - truth (100 s means of {k} samples)")
-    axes[1].set_ylabel(f"bias, {PAL.ERROR_UNIT}")
-    _min_span(axes[1], PAL.ERROR_UNIT)
-    axes[1].set_xlabel(f"time since power-on, {tname}")
-    axes[1].legend(**{**LEGEND, "bbox_to_anchor": (1.1, 1.0)})
+    ax_b.plot(t, bias, lw=0.8, color="0.4",
+              label=f"raw output - truth (100 s means of {k} samples)")
+    ax_b.set_ylabel(f"bias, {PAL.ERROR_UNIT}")
+    _min_span(ax_b, PAL.ERROR_UNIT)
+    ax_b.set_xlabel(f"time since power-on, {tname}")
+    # the loop: bias against the temperature a lab reads, by the direction of the coil's drift
+    temp = M.smooth(th.sensor if has_sensor else th.coil, rd.fs, 100.0)
+    rate = M.smooth(th.coil_rate * 60.0, rd.fs, 100.0)
+    steady = STEADY_FRACTION * max(float(np.max(np.abs(rate))), 1e-12)
+    ax_l.plot(temp, bias, color="0.75", lw=0.6, zorder=1)
+    for name, sel, c in (("heating", rate > steady, "tab:red"),
+                         ("cooling", rate < -steady, "tab:blue"),
+                         ("steady", np.abs(rate) <= steady, "0.45")):
+        if np.any(sel):
+            ax_l.plot(temp[sel], bias[sel], "o", ms=3, color=c, zorder=2, gid=f"loop:{name}",
+                      label=f"bias vs temperature, {name}"
+                            + (f" (|dT/dt| <= {steady:.2g} deg C/min)" if name == "steady"
+                               else ""))
+    ax_l.set_xlabel("sensor reading, deg C (100 s means)" if has_sensor
+                    else "coil temperature (true), deg C (100 s means)")
+    lo, hi = PAL.min_span(*ax_l.get_xlim(), "deg C")
+    ax_l.set_xlim(lo, hi)
+    ax_l.tick_params(labelleft=False)
+    ax_l.set_title("the same bias against temperature", fontsize=9)
+    handles = []
+    labels = []
+    for a in (ax, ax2, ax_b, ax_l):
+        h, lab = a.get_legend_handles_labels()
+        handles += h
+        labels += lab
+    ax_key.legend(handles, labels, loc="upper left", fontsize=8, frameon=False)
     _save(fig, path)
     return True
 

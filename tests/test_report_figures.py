@@ -286,6 +286,51 @@ def test_every_curve_of_the_thermal_figure_is_in_its_legend(figs, tmp_path):
     assert plotted <= _legend_texts(fig), plotted - _legend_texts(fig)
 
 
+def _loop_res(shupe_dph_per_c_per_s: float):
+    """A heat-up and cool-down at 1 deg C/min with fast lags (5 s) and a bias of 0.02 deg/h
+    per deg C plus ``shupe`` times the coil's dT/dt (deg C/s)."""
+    from sim.thermal import ThermalHold, ThermalModel, ThermalProgram, ThermalRamp, \
+        TempSensor, simulate_thermal
+
+    fs = 1.0
+    t = np.arange(0.0, 5400.0, 1.0 / fs)
+    prog = ThermalProgram(start=20.0, steps=(ThermalHold(300.0), ThermalRamp(40.0, 1.0 / 60.0),
+                                             ThermalHold(900.0), ThermalRamp(20.0, 1.0 / 60.0),
+                                             ThermalHold(1800.0)))
+    th = simulate_thermal(prog, t, ThermalModel(housing_time_constant=5.0,
+                                                coil_time_constant=5.0,
+                                                sensor=TempSensor("coil")))
+    raw = (0.02 * (th.coil - 20.0) + shupe_dph_per_c_per_s * th.coil_rate)[:, None] * DPH
+    rd = SimpleNamespace(run=SimpleNamespace(thermal=prog, name="r1"), fs=fs, n=t.size,
+                         truth=SimpleNamespace(t=t), thermal=th,
+                         fog=SimpleNamespace(raw=raw), truth_axis=lambda j: np.zeros(t.size))
+    return SimpleNamespace(data={"r1": rd}, scenario=SimpleNamespace(axes=("z",)),
+                           plan=SimpleNamespace(axis="z", paper=(), protocols=()))
+
+
+@pytest.mark.parametrize("shupe", [0.0, 30.0])
+def test_the_thermal_loop_opens_by_twice_the_shupe_term(figs, tmp_path, shupe):
+    """thermal.png's bias-against-temperature panel: at 30 deg C, mid-ramp, the heating and the
+    cooling branch sit apart by 2 c r (a bias c dT/dt, ramps of +-r = 1/60 deg C/s), analytic;
+    with no term in dT/dt they coincide (no loop drawn where the physics has none)."""
+    assert R.fig_thermal(_loop_res(shupe), "r1", tmp_path / "th.png")
+    by = {ln.get_gid(): ln for ax in figs[-1].axes for ln in ax.get_lines()
+          if str(ln.get_gid()).startswith("loop:")}
+    assert {"loop:heating", "loop:cooling", "loop:steady"} <= set(by)
+
+    def at_30(name):
+        x, y = by[name].get_xdata(), by[name].get_ydata()
+        order = np.argsort(x)
+        return float(np.interp(30.0, x[order], y[order]))
+
+    gap = at_30("loop:heating") - at_30("loop:cooling")
+    assert gap == pytest.approx(2.0 * shupe / 60.0, abs=0.01 * max(shupe / 60.0, 1.0)), gap
+    # the 100 s points of the bias against time and of the loop are the same numbers
+    ax_time = next(ax for ax in figs[-1].axes if ax.get_xlabel().startswith("time"))
+    heat = by["loop:heating"].get_ydata()
+    assert np.all(np.isin(heat, ax_time.get_lines()[0].get_ydata()))
+
+
 def test_every_curve_of_allan_and_psd_is_in_the_legend(figs, tmp_path):
     it = _static_item()
     R.fig_allan(it, tmp_path / "a.png")

@@ -31,7 +31,7 @@ a protocol scores the same run more than once; `<label>`: `raw`, `oracle` or a m
 | `/runs/<run>/fog/raw` | raw FOG output, deg/s |
 | `/runs/<run>/fog/compensated/<protocol>/<label>` | output of a scored piece (raw, oracle, each method), deg/s |
 | `/runs/<run>/fog/error/<protocol>/<label>` | that output minus the truth, deg/h |
-| `/runs/<run>/fog/error_shown/<protocol>/<label>` | the same with what every output keeps alike taken out (`fogbench.views.kept_alike`, as the PNG time series): raw's slow variation about its mean under a wander no method removes, or each curve's moving mean under fast noise every method keeps; only for pieces that have such a thing or a sweep (then the errors as they are, the sweep's default named as such); the Overview shows these, the Errors tab the errors as they are, deg/h; a sweep's members other than its default are only in its envelope (next row) |
+| `/runs/<run>/fog/error_shown/<protocol>/<label>` | the same with what every output keeps alike taken out (`fogbench.views.kept_alike`, as the PNG time series): raw's slow variation about its mean under a wander no method removes, or each curve's moving mean under fast noise every method keeps; each curve less its own mean where every claim on the run scores the std (`fogbench.views.mean_blind`); only for pieces that have such a thing or a sweep (then the errors as they are, the sweep's default named as such); the Overview shows these, the Errors tab the errors as they are, deg/h; a sweep's members other than its default are only in its envelope (next row) |
 | `/runs/<run>/fog/error_shown/<protocol>/<sweep> envelope/{low,high}` | a sweep's envelope in the Overview's error view: the lowest and highest of its members' shown errors at each time (their errors as they are where a piece takes nothing out), deg/h |
 | `/runs/<run>/fog/error_terms/<term>` | each simulated error term (`FogOutput.terms`), deg/h |
 | `/runs/<run>/table/tilt_deg`, `tilt_cmd_deg` | tilt angle and its command, deg |
@@ -132,6 +132,7 @@ from .fmt import decimation, fmt, md_table, metrics_table
 from .views import (
     DWARF,
     kept_alike,
+    mean_blind,
     method_entries,
     offsets_only,
     shown_error,
@@ -201,7 +202,7 @@ class _Writer:
         self.mc_plots: dict[str, str] = {}                    # headline metric -> plot root
         self.mc_plotted: set[tuple[str, str]] = set()         # (protocol, metric) plotted
         self.mc_width: dict[str, float] = {}                  # Monte Carlo plot -> box width
-        self.shown: dict[str, tuple[str, int]] = {}           # error root -> (kind, k) taken out
+        self.shown: dict[str, tuple] = {}   # error root -> (kind, k, centre) taken out (views)
         # the Overview's error view draws a sweep as its default setting's line and the
         # envelope of its members: error root -> (members' shown paths not drawn, envelope's)
         self.sweeps: dict[str, tuple[set[str], list[str]]] = {}
@@ -510,8 +511,9 @@ def _log_piece(w: _Writer, key: str, it, colors, in_sample: bool,
     # error view as in the PNG time series (fogbench.views.kept_alike)
     errs = {lab: (out - p.truth) / DPH for lab, out in it.outputs.items()}
     kind, trend, kw = kept_alike(errs, [lab for lab in errs if lab not in ("raw", "oracle")])
-    if kind is not None:
-        w.shown[_p("runs", it.run, "fog", "error", key)] = (kind, kw)
+    centre = mean_blind(plan, it.run)
+    if kind is not None or centre:
+        w.shown[_p("runs", it.run, "fog", "error", key)] = (kind, kw, centre)
     sweeps = [e for e in method_entries(list(it.outputs), plan) if e["group"]] \
         if plan is not None else []
     members_shown: dict[str, np.ndarray] = {}
@@ -532,8 +534,8 @@ def _log_piece(w: _Writer, key: str, it, colors, in_sample: bool,
         w.series(_p("runs", it.run, "fog", "error", key, lab), p.t[s],
                  (out[s] - p.truth[s]) / DPH, sname, c, width)
         err = errs[lab]
-        if kind is not None or sweeps:    # (a sweep's default is named as such there)
-            shown = shown_error(kind, err, trend, kw)
+        if kind is not None or centre or sweeps:  # (a sweep's default is named as such)
+            shown = shown_error(kind, err, trend, kw, centre)
             members_shown[lab] = shown
             if lab not in in_envelope:
                 w.series(_p("runs", it.run, "fog", "error_shown", key, lab), p.t[s], shown[s],
@@ -1160,16 +1162,21 @@ def _blueprint(res, w: _Writer, reps: dict | None = None, active_tab: str = "Ove
             if root in w.sweeps:      # a sweep: its default's line and its members' envelope
                 skip, envelope = w.sweeps[root]
                 shown = [x for x in shown if x not in skip] + envelope
-        kinds = sorted({w.shown[x.rsplit("/", 1)[0]] for x in lst
-                        if x.rsplit("/", 1)[0] in w.shown})
+        kinds = list(dict.fromkeys(w.shown[x.rsplit("/", 1)[0]] for x in lst
+                                   if x.rsplit("/", 1)[0] in w.shown))
+        kinds_k = sorted({(kd, k) for kd, k, _ in kinds if kd is not None})
         what = ("Error less raw's slow variation (no method removes it)"
-                if kinds and all(kd == "trend" for kd, _ in kinds) else
-                f"Error, {kinds[0][1]}-sample moving mean (every method keeps raw's fast noise)"
-                if len(kinds) == 1 and kinds[0][0] == "fast" else
-                f"Error, {kinds[0][1]}-sample moving mean less raw's slow variation (every "
+                if kinds_k and all(kd == "trend" for kd, _ in kinds_k) else
+                f"Error, {kinds_k[0][1]}-sample moving mean (every method keeps raw's fast "
+                "noise)" if len(kinds_k) == 1 and kinds_k[0][0] == "fast" else
+                f"Error, {kinds_k[0][1]}-sample moving mean less raw's slow variation (every "
                 "method keeps raw's noise, fast and slow)"
-                if len(kinds) == 1 and kinds[0][0] == "both" else
-                "Error (less what every method keeps alike)" if kinds else "Error vs truth")
+                if len(kinds_k) == 1 and kinds_k[0][0] == "both" else
+                "Error (less what every method keeps alike)" if kinds_k else "Error vs truth")
+        if kinds and all(c for _, _, c in kinds):
+            what += ", each less its mean (the claims score the std, blind to it)"
+        elif any(c for _, _, c in kinds):
+            what += ", some runs' curves less their means (claims on the std)"
         axis, off = _y_axis_zoomed(w, shown)
         note = f"; {' and '.join(off)} off this scale" if off else ""
         plain = "; as they are: tab Errors" if (kinds or off) and len(error_views) > 1 else \

@@ -26,8 +26,8 @@ from .fmt import (key_metric, KEY_METRICS, ci_text, decimation, fmt, md_table,  
 from .io import atomic_write_bytes, atomic_write_text, run_arrays, save_figure as _save, versions  # noqa: E402
 from . import palette as PAL  # noqa: E402
 from .views import (DWARF, SAME_FRACTION, kept_alike as _kept_alike,  # noqa: E402
-                    method_entries as _method_entries, moving_mean as _moving_mean,
-                    offsets_only, shown_error as _shown_error, sweep_names as _sweep_names)
+                    mean_blind, method_entries as _method_entries,
+                    moving_mean as _moving_mean, offsets_only, shown_error as _shown_error, sweep_names as _sweep_names)
 from .claim_figures import (SETUP_HEADING, draw_claim_figures, open_on_answer,  # noqa: E402
                             takeaway, unit_of, verdict_link)
 from .outdir import as_final, check_out_dir, discard_part, new_part_dir, replace_dir  # noqa: E402
@@ -270,7 +270,8 @@ def fig_timeseries(it, path: Path, plan=None) -> int:
     methods = [m for e in entries for m in e["members"]]
     errs = {lab: (it.outputs[lab] - p.truth) / DPH for lab in labels}
     kind, trend, k = _kept_alike(errs, methods)
-    shown = {lab: _shown_error(kind, e, trend, k) for lab, e in errs.items()}
+    centre = mean_blind(plan, it.run)
+    shown = {lab: _shown_error(kind, e, trend, k, centre) for lab, e in errs.items()}
     (t, truth, raw_out, *dec), step = _decimate(p.t / ts, p.truth, p.raw,
                                                 *[shown[lab] for lab in labels])
     cur = dict(zip(labels, dec))
@@ -293,13 +294,18 @@ def fig_timeseries(it, path: Path, plan=None) -> int:
     fixed = [lab for lab in ("raw", "oracle") if lab in cur and lab not in big]
     lo, hi = _span([cur[m] for m in methods + fixed])   # the zoom: methods, and raw/oracle
     width = hi - lo                                      # where they do not dwarf them
-    ref_panel = bool(big) or kind is not None
+    ref_panel = bool(big) or kind is not None or centre
+    # the oracle where it lies on raw (the true terms a constant, taken out with the mean)
+    under_raw = {"oracle": "oracle (on raw here)"} if {"raw", "oracle"} <= set(fixed) and \
+        np.max(np.abs(cur["oracle"] - cur["raw"])) <= SAME_FRACTION * max(width, 1e-300) else {}
     cap = min(TS_METHOD_LINES, MAX_LINES - len(fixed))
     panels = [(c, False) for c in _chunks(quiet, cap, plan)] + \
         ([(c, True) for c in _chunks(loud, cap, plan)] if loud else [])
     n_ax = 1 + int(ref_panel) + len(panels)
     fig, axes = plt.subplots(n_ax, 1, figsize=(10.5, 2.1 + 2.3 * (n_ax - 1)), sharex=True,
                              squeeze=False)
+    if centre:          # the methods' panel's title runs to two lines
+        fig.subplots_adjust(hspace=0.35)
     axes = list(axes[:, 0])
     sty = _styles(labels, widest=1.6, thinnest=0.8, dashed_raw=False, plan=plan)
     ax = axes.pop(0)
@@ -316,7 +322,8 @@ def fig_timeseries(it, path: Path, plan=None) -> int:
         # the errors as they are, and raw's k-sample moving mean: what the panels below take
         # out (kind "trend") or show (kind "fast")
         for lab in ("oracle", "raw"):
-            if lab in big or (lab == "raw" and kind is not None):
+            if lab in big or (lab == "raw" and (kind is not None or centre)) or \
+                    (lab == "oracle" and centre):
                 ax.plot(t, errs[lab][::step], label=f"{lab}", alpha=0.85, **sty[lab])
         if kind is not None and "raw" in errs:
             ax.plot(t, _moving_mean(errs["raw"], k)[::step], color="black", lw=1.2, zorder=9,
@@ -329,18 +336,21 @@ def fig_timeseries(it, path: Path, plan=None) -> int:
         ax.legend(**LEGEND)
     pad = 0.05 * max(width, 1e-12)
     what = {"trend": "error - raw's trend", "fast": f"error, {k}-sample mean",
-            "both": "moving mean - raw's trend"}.get(kind, "error vs truth")
+            "both": "moving mean - raw's trend"}.get(kind, "error vs truth") \
+        + (",\nless its mean" if centre else "")
     dt = k / p.fs
     note = {"trend": "; raw's slow variation about its mean taken out of every curve: no "
                      "method removes it",
             "fast": f"; {k}-sample ({dt:.3g} s) moving means: every method keeps raw's faster "
                     "noise",
             "both": f"; {k}-sample ({dt:.3g} s) moving means less raw's slow variation: every "
-                    "method keeps raw's noise, fast and slow"}.get(kind, "")
+                    "method keeps raw's noise, fast and slow"}.get(kind, "") \
+        + ("\neach curve less its own mean (the claims on this run score the std, blind to "
+           "it)" if centre else "")
     for i, (chunk, is_loud) in enumerate(panels):
         ax = axes[i]
         for lab in fixed:
-            ax.plot(t, cur[lab], label=lab, alpha=0.85, **sty[lab])
+            ax.plot(t, cur[lab], label=under_raw.get(lab, lab), alpha=0.85, **sty[lab])
         for e in chunk:
             _draw_entry(ax, t, cur, e, sty, alpha=0.9)
         if is_loud:

@@ -92,15 +92,37 @@ def kept_alike(errs: dict, methods: list[str]):
     return None, None, k
 
 
-def shown_error(kind: str | None, err: np.ndarray, trend, k: int) -> np.ndarray:
-    """An error as the methods' panels draw it, by :func:`kept_alike`'s ``kind``."""
+def shown_error(kind: str | None, err: np.ndarray, trend, k: int,
+                centre: bool = False) -> np.ndarray:
+    """An error as the methods' panels draw it, by :func:`kept_alike`'s ``kind``; with
+    ``centre`` (:func:`mean_blind`), less its own mean as well."""
     if kind == "trend":
-        return err - trend
-    if kind == "fast":
-        return moving_mean(err, k)
-    if kind == "both":
-        return moving_mean(err, k) - trend
-    return err
+        out = err - trend
+    elif kind == "fast":
+        out = moving_mean(err, k)
+    elif kind == "both":
+        out = moving_mean(err, k) - trend
+    else:
+        out = np.asarray(err, dtype=float)
+    return out - float(np.mean(out)) if centre and out.size else out
+
+
+#: Metrics that take each output's mean out before they measure it (``std_dps``, ``std_dph``:
+#: the sample standard deviation, fogcomp.metrics.summary).
+MEAN_BLIND_PREFIX = "std_"
+
+
+def mean_blind(plan, run: str) -> bool:
+    """Whether every claim scored on ``run`` (a ``[[claims]]`` entry with this ``run``, or with
+    none) uses a metric blind to each output's mean (:data:`MEAN_BLIND_PREFIX`): then the error
+    views draw every curve less its own mean, since the verdict cannot see it. paper000's
+    test_m60 is scored by the output's std: under its Gauss-Markov wander the oracle (raw less
+    the true deterministic terms) drew 100 deg/h above raw in a draw where the true terms
+    offset part of the wander, which read as an oracle worse than raw. False when no claim
+    is scored on the run."""
+    claims = [c for c in getattr(plan, "claims", ()) or ()
+              if getattr(c, "run", None) in (None, run)]
+    return bool(claims) and all(str(c.metric).startswith(MEAN_BLIND_PREFIX) for c in claims)
 
 
 def method_entries(labels: list[str], plan) -> list[dict]:

@@ -1110,6 +1110,42 @@ def test_the_overview_error_view_takes_out_raw_s_wander_and_zooms_to_the_methods
     assert hi - lo < np.ptp(err["raw"])
 
 
+def test_under_a_std_claim_the_overview_draws_each_error_less_its_mean(tmp_path):
+    """As the PNG time series: where every claim on the run scores the std (paper000's
+    test_m60), the Overview's shown errors are the errors less raw's wander and each less its
+    own mean (the oracle, raw less the true terms, then lies on raw), and the view says so."""
+    text = TINY.replace('name = "rec_tiny"', 'name = "rec_std"') + """
+[[claims]]
+text = "a std claim"
+source = "test"
+metric = "std_dps"
+better = "wavelet_soft"
+than = "kalman"
+run = "test_run"
+min_pct = 10.0
+"""
+    (tmp_path / "s.toml").write_text(text)
+    res = run_scenario(tmp_path / "s.toml")
+    R.write_recording(res, tmp_path / "recording.rrd")
+    rrd = Rrd(tmp_path / "recording.rrd")
+    (it,) = res.scored
+    root = f"/runs/{it.run}/fog"
+    err = {lab: rrd.scalars(f"{root}/error/{it.protocol}/{lab}")[1] for lab in it.outputs}
+    shown = {lab: rrd.scalars(f"{root}/error_shown/{it.protocol}/{lab}")[1]
+             for lab in it.outputs}
+    assert len(shown["raw"]) == it.piece.t.size         # not decimated: the exact means
+    for lab in it.outputs:
+        assert abs(float(np.mean(shown[lab]))) < 1e-6 * float(np.ptp(err[lab])), lab
+    # the oracle is raw less the true deterministic terms (here 25 deg/h on average): drawn
+    # less their means, the two differ by those terms' variation alone
+    gap = err["oracle"] - err["raw"]
+    assert abs(float(np.mean(gap))) > 10.0
+    np.testing.assert_allclose(shown["oracle"] - shown["raw"], gap - np.mean(gap), atol=1e-6)
+    props, view, _ = _overview_error_view(rrd, it.run)
+    name = " ".join(str(n) for n in props[view]["ViewBlueprint:display_name"])
+    assert "less its mean" in name, name
+
+
 @pytest.mark.parametrize("preset, taken_out", [("low_grade", True), ("navigation", False)])
 def test_the_overview_error_view_draws_a_sweep_as_its_default_line_and_envelope(
         tmp_path, preset, taken_out):

@@ -233,6 +233,59 @@ def test_a_wander_no_denoiser_removes_is_taken_out_of_every_curve(figs, tmp_path
     assert hi - lo < 500.0
 
 
+def _claim(metric, run=None):
+    return SimpleNamespace(metric=metric, run=run, better="wnn", than="kalman", text="",
+                           source="", min_pct=50.0, max_pct=None)
+
+
+def test_which_runs_are_scored_by_a_metric_blind_to_the_mean():
+    from fogbench.views import mean_blind
+
+    plan = SimpleNamespace(claims=(_claim("std_dps", "r1"), _claim("rmse_dph", "r2")))
+    assert mean_blind(plan, "r1") and not mean_blind(plan, "r2")
+    assert not mean_blind(plan, "r3")                    # no claim scored on it
+    both = SimpleNamespace(claims=(_claim("std_dps"), _claim("rmse_dph", "r1")))
+    assert not mean_blind(both, "r1") and mean_blind(both, "r2")
+    assert not mean_blind(None, "r1") and not mean_blind(SimpleNamespace(claims=()), "r1")
+
+
+def test_under_a_std_claim_every_curve_is_drawn_less_its_own_mean(figs, tmp_path):
+    """paper000's test_m60, scored by the output's std under a wander: the true deterministic
+    terms (-300 deg/h here) offset part of raw's error, so the oracle (raw less them) drew
+    300 deg/h above raw. With each curve less its own mean, the oracle lies on raw (a constant
+    removed) and is named so; the methods' curves are their errors less raw's trend and their
+    own means (a slow twin of both)."""
+    n, fs = 2000, 100.0
+    rng = np.random.default_rng(4)
+    truth = np.full(n, -60.0 * DPS_)
+    wander = (200.0 + 500.0 * np.sin(2 * np.pi * np.arange(n) / n * 3.0)) * DPH
+    raw = truth + wander - 300.0 * DPH + rng.standard_normal(n) * 50.0 * DPH
+    outs = {"raw": raw, "oracle": raw + 300.0 * DPH}
+    for i, lab in enumerate(["kalman", "wnn"]):
+        outs[lab] = truth + wander + (40.0 * i) * DPH + rng.standard_normal(n) * 30.0 * DPH
+    plan = SimpleNamespace(methods=_plan().methods, claims=(_claim("std_dps"),))
+    R.fig_timeseries(_item(outs, truth, fs), tmp_path / "t.png", plan=plan)
+    fig = figs[-1]
+    k = round(n / 50)
+    e_raw = list((raw - truth) / DPH)
+    trend = _slow_moving_mean(e_raw, k) - sum(e_raw) / n
+    for lab in ("kalman", "wnn", "raw"):
+        ln = [ln for ax in fig.axes for ln in ax.get_lines() if ln.get_label() == lab][-1]
+        want = (outs[lab] - truth) / DPH - trend
+        np.testing.assert_allclose(ln.get_ydata(), want - sum(want) / n, atol=1e-7)
+    oracle = [ln for ax in fig.axes for ln in ax.get_lines()
+              if ln.get_label().startswith("oracle")]
+    assert "oracle (on raw here)" in {ln.get_label() for ln in oracle}
+    title = " ".join(ax.get_title() for ax in fig.axes)
+    assert "less its own mean" in title and "std" in title
+    # without the std claim (rmse: the mean counts), the means stay
+    figs.clear()
+    plan = SimpleNamespace(methods=_plan().methods, claims=(_claim("rmse_dph"),))
+    R.fig_timeseries(_item(outs, truth, fs), tmp_path / "t.png", plan=plan)
+    ln = [ln for ax in figs[-1].axes for ln in ax.get_lines() if ln.get_label() == "wnn"][-1]
+    assert float(np.mean(ln.get_ydata())) == pytest.approx(200.0 + 40.0, abs=5.0)
+
+
 def test_a_bias_the_methods_remove_under_the_trend_stays_visible(figs, tmp_path):
     """lab_references: the methods remove a 2 deg/h bias but keep raw's slow variation; taking
     raw's whole trend out drew them at -2 deg/h under a caption saying no method removes it.

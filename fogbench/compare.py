@@ -235,6 +235,7 @@ def _figure(rows: list[dict], path: str) -> None:
     from matplotlib.lines import Line2D
 
     from .io import save_figure
+    from .runner import ORACLE_FILTER_MAX_SAMPLES
 
     rows = _figure_rows(rows)
     n = max(len(rows), 1)
@@ -289,7 +290,8 @@ def _figure(rows: list[dict], path: str) -> None:
                Line2D([], [], marker="|", color="black", ls="", ms=9, mew=1.6,
                       label="oracle (true deterministic terms removed)"),
                Line2D([], [], marker="|", color="0.55", ls="", ms=9, mew=1.6,
-                      label="filter oracle (best given the true noise model)"),
+                      label="filter oracle (best given the true noise model; only on "
+                            f"static pieces of <= {ORACLE_FILTER_MAX_SAMPLES:,} samples)"),
                Line2D([], [], color="0.45", lw=2.0,
                       label="a sweep: its settings' means, min to max")]
     ax.legend(handles=handles, fontsize=7, loc="lower center", bbox_to_anchor=(0.5, 1.0),

@@ -473,6 +473,27 @@ def _psd_ylim(curves: dict[str, np.ndarray]) -> tuple[float, float]:
     return low, top
 
 
+def _log_ticks(ax) -> None:
+    """Tick labels of a log-log panel that never collide: minor ticks unlabelled (matplotlib
+    labels them on an axis spanning about a decade, where paper002's PSD printed 3x10^-4 into
+    4x10^-4); an axis spanning under LOG_LABEL_DECADES decades gets majors at 1, 2 and 5 per
+    decade instead, so that it keeps at least two labels."""
+    from matplotlib import ticker
+
+    for axis, lim in ((ax.xaxis, ax.get_xlim()), (ax.yaxis, ax.get_ylim())):
+        lo, hi = sorted(lim)
+        if not lo > 0:
+            continue
+        if math.log10(hi / lo) < LOG_LABEL_DECADES:
+            axis.set_major_locator(ticker.LogLocator(subs=(1.0, 2.0, 5.0)))
+        axis.set_major_formatter(ticker.LogFormatterSciNotation(   # every major labelled
+            labelOnlyBase=False, minor_thresholds=(math.inf, math.inf)))
+        axis.set_minor_formatter(ticker.NullFormatter())
+
+
+LOG_LABEL_DECADES = 2.0
+
+
 def fig_psd(it, path: Path, plan=None):
     """PSD of each output's error against the truth (mean removed), (deg/h)^2/Hz, averaged in
     fogbench.palette.PSD_PER_DECADE log-spaced bands (fogcomp.metrics.psd_bands: Welch, Hann, 8 half-overlapping
@@ -516,6 +537,8 @@ def fig_psd(it, path: Path, plan=None):
         ax.set_ylabel(f"PSD of output - truth, {PAL.PSD_UNIT}", fontsize=9)
         ax.grid(True, which="both", lw=0.3)
         ax.legend(**LEGEND)
+    for ax in axes[:, 0]:
+        _log_ticks(ax)
     axes[-1, 0].set_xlabel("frequency, Hz")
     axes[0, 0].set_title(f"{it.protocol} / {it.run}: PSD of the error (Welch, 8 segments, mean "
                          f"removed), averaged in {PAL.PSD_PER_DECADE} bands a decade\n"
@@ -604,6 +627,8 @@ def fig_allan(it, path: Path, plan=None) -> bool:
         ax.set_ylabel(f"Allan deviation of (output - truth), {PAL.ERROR_UNIT}", fontsize=9)
         ax.grid(True, which="both", lw=0.3)
         ax.legend(**LEGEND)
+    for ax in axes[:, 0]:
+        _log_ticks(ax)
     axes[-1, 0].set_xlabel("averaging time tau, s")
     axes[0, 0].set_title(f"{it.protocol} / {it.run}: overlapping Allan deviation\n"
                          f"bands: {100 * ALLAN_CI:.0f} % interval (chi-square, EDF of the leading "

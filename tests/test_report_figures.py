@@ -462,3 +462,29 @@ def test_simulate_writes_saturation_flags_and_the_sensor_columns(tmp_path):
     steps = a["sensor_c"] / 0.0625
     np.testing.assert_allclose(steps, np.round(steps), atol=1e-9)
     assert not np.array_equal(a["sensor_c"], a["coil_c"])
+
+
+@pytest.mark.parametrize("n", [300, 1500, 40000])
+def test_log_axis_tick_labels_never_collide_and_at_least_two_show(figs, tmp_path, n):
+    """paper002's PSD spans 1.5 decades of frequency: matplotlib labelled its minor ticks and
+    printed 3x10^-4 into 4x10^-4. Drawn, the tick labels of every log axis of the PSD and Allan
+    figures keep apart (their rendered boxes do not overlap) and each axis keeps two labels."""
+    it = _static_item(n=n)
+    R.fig_psd(it, tmp_path / "p.png")
+    R.fig_allan(it, tmp_path / "a.png")
+    for fig in figs:
+        fig.canvas.draw()
+        rend = fig.canvas.get_renderer()
+        for ax in fig.axes:
+            for axis in (ax.xaxis, ax.yaxis):
+                lo, hi = axis.get_view_interval()
+                boxes = [lab.get_window_extent(rend) for lab in axis.get_ticklabels(which="both")
+                         if lab.get_visible() and lab.get_text()
+                         and lo * (1 - 1e-9) <= lab.get_position()[axis is ax.yaxis]
+                         <= hi * (1 + 1e-9)]
+                if axis is ax.xaxis and not ax.xaxis.get_tick_params()["labelbottom"]:
+                    continue        # a shared x axis: labels on the bottom panel only
+                assert len(boxes) >= 2, (fig.axes.index(ax), axis.axis_name, lo, hi)
+                boxes.sort(key=lambda b: (b.x0, b.y0))
+                for a, b in zip(boxes, boxes[1:]):
+                    assert not a.overlaps(b), (axis.axis_name, a, b)

@@ -224,18 +224,25 @@ def test_multi_position_pieces_are_plotted_as_dwell_means_in_deg_per_h(figs, tmp
 
 def test_many_dwells_are_joined_lines_without_bars(figs, tmp_path, monkeypatch):
     """thermal_with_motion drew 133 dwells x 6 outputs of error bars; above DWELL_BARS_MAX
-    dwells each output's dwell means are one line (its values the means, by the slow twin)."""
+    dwells each output's dwell means are one line (its values the means, by the slow twin).
+    Their noisy means tangled in the methods' panel: there each method is drawn less the
+    oracle's dwell means, the deterministic error it leaves (here the 0.1 deg/h the fit leaves
+    over the oracle, noise-free), the oracle a zero line."""
     it, fs = _dwell_item()
     monkeypatch.setattr(R, "DWELL_BARS_MAX", 3)         # 5 dwells: more than 3
     R.fig_timeseries(it, tmp_path / "t.png")
     fig = figs[-1]
     assert not any(isinstance(c, ErrorbarContainer) for ax in fig.axes for c in ax.containers)
-    for lab in ("raw", "oracle", "flnn"):
+    for lab in ("raw", "oracle"):
         _, tmean, _ = _dwell_twin(list(it.piece.t), list(it.outputs[lab] - it.piece.truth), fs)
         lines = [ln for ax in fig.axes[1:] for ln in ax.get_lines() if ln.get_label() == lab]
         assert lines
         for ln in lines:
             np.testing.assert_allclose(ln.get_ydata(), tmean / DPH, rtol=1e-9)
+    (ln,) = [ln for ax in fig.axes[2:] for ln in ax.get_lines() if ln.get_label() == "flnn"]
+    np.testing.assert_allclose(ln.get_ydata(), 0.1, rtol=1e-6)
+    assert "oracle" in ln.axes.get_ylabel()
+    assert any(x.get_label().startswith("oracle (0") for x in ln.axes.get_lines())
 
 
 def test_members_of_one_family_differ_in_marker_in_the_dwell_figure(figs, tmp_path):

@@ -159,6 +159,56 @@ def _limits(ax, ys: list[float], bounds: list[float]) -> None:
     ax.set_xlim(-0.45, COL2 + 1.3)
 
 
+#: A column whose points and interval span less than this fraction of its panel's y range
+#: (paper000's WNN: 1.4 [0.8, 2.0] % on an axis to the oracle's 100 %, an interval inside its
+#: marker) gets a zoomed inset of its own.
+ZOOM_FRACTION = 0.08
+
+
+def _zoom_inset(ax, values, sm: dict | None, color, gid: str, bounds=()) -> bool:
+    """An inset over the half of ``ax`` away from column 0's values, showing that column's
+    replicate points and its mean with its interval at their own scale (and any of ``bounds``,
+    the claimed range's ends, that falls in it), linked to where it sits on the main axis."""
+    v = [y for y in (values or []) if y is not None and math.isfinite(y)]
+    if sm and sm.get("mean") is not None:
+        v += [y for y in (sm.get("ci_low"), sm.get("ci_high"), sm["mean"]) if y is not None]
+    if not v:
+        return False
+    y0, y1 = ax.get_ylim()
+    lo, hi = min(v), max(v)
+    if hi - lo >= ZOOM_FRACTION * (y1 - y0):
+        return False
+    pad = 0.15 * (hi - lo) if hi > lo else max(1e-12, 0.01 * abs(hi))
+    zlo, zhi = lo - pad, hi + pad
+    upper = 0.5 * (lo + hi) < 0.5 * (y0 + y1)       # the column sits low: the inset goes high
+    ins = ax.inset_axes([0.14, 0.55 if upper else 0.06, 0.3, 0.38])  # its labels inside ax
+    rng = np.random.default_rng(0)
+    pts = [y for y in (values or []) if y is not None and math.isfinite(y)]
+    if pts:
+        ins.plot(-0.12 + rng.uniform(-0.05, 0.05, len(pts)), pts, "o", ms=3.5, alpha=0.55,
+                 color=color, mec="none", gid=f"{gid}_points")
+    if sm and sm.get("mean") is not None and sm.get("ci_low") is not None:
+        m = sm["mean"]
+        cont = ins.errorbar([0.12], [m], yerr=[[m - sm["ci_low"]], [sm["ci_high"] - m]],
+                            fmt="D", ms=5, color=color, elinewidth=2.5, capsize=5, capthick=1.5)
+        cont.lines[0].set_gid(gid)
+        for part in cont.lines[2]:
+            part.set_gid(gid)
+    for b in bounds:
+        if b is not None and zlo < b < zhi:
+            ins.axhline(b, color=CLAIM_COLOR, lw=1.0, ls="--")
+    if zlo < 0.0 < zhi:
+        ins.axhline(0.0, color="0.4", lw=0.8)
+    ins.set_xlim(-0.35, 0.35)
+    ins.set_ylim(zlo, zhi)
+    ins.set_xticks([])
+    ins.tick_params(labelsize=7)
+    ins.set_title("zoomed in", fontsize=7, pad=2)
+    ins.grid(True, axis="y", alpha=0.3)
+    ax.indicate_inset_zoom(ins, edgecolor="0.5")
+    return True
+
+
 def fig_claim(c: dict, path: Path) -> bool:
     """Claim ``c`` (an entry of ``montecarlo.claims``) as one figure (see the module doc)."""
     import matplotlib
@@ -198,6 +248,7 @@ def fig_claim(c: dict, path: Path) -> bool:
     ys += _column(ax, COL2, pr.get("oracle_improvement_pct"), c.get("oracle_improvement"),
                   ORACLE_COLOR, "oracle_ci", rng, "_pct", "%")
     _limits(ax, ys, [lo, hi])
+    _zoom_inset(ax, pr.get("improvement_pct"), sm, vcol, "claim_ci_zoom", (lo, hi))
     ax.set_xticks([0, COL2], [c["better"], oracle + ("" if bound else "\n(not a bound)")],
                   fontsize=9)
     ax.set_ylabel(f"improvement over {c['than']}, per cent\n"
@@ -220,6 +271,7 @@ def fig_claim(c: dict, path: Path) -> bool:
     ys += _column(bx, COL2, diff(pr.get("oracle"), pr.get("than")), opd, ORACLE_COLOR,
                   "oracle_diff_ci", rng, metric, unit)
     _limits(bx, ys, [])
+    _zoom_inset(bx, diff(pr.get("better"), pr.get("than")), pd, vcol, "claim_diff_ci_zoom")
     bx.set_xticks([0, COL2], [f"{c['better']}\nminus {c['than']}", f"{oracle}\nminus {c['than']}"],
                   fontsize=9)
     bx.set_ylabel(f"paired difference of {mname}, {unit}"

@@ -322,3 +322,38 @@ def test_a_disagreement_names_its_side_in_the_verdict_line_and_the_figure(kept, 
         colours.append(to_hex(verdict_text.get_color()))
     # the two sides are told apart by colour too: better than the paper said is not red
     assert colours[1] == "#c0392b" and colours[0] not in (colours[1], "#2a9d3f")
+
+
+def test_an_interval_lost_in_its_marker_gets_a_zoomed_inset(claims, kept, tmp_path):
+    """paper000: the WNN's 1.4 [0.8, 2.0] % on an axis up to the oracle's 100 % was an interval
+    inside its marker. A column spanning under ZOOM_FRACTION of its panel gets an inset where
+    its points and its interval (the same numbers) fill the height; a column that reads on the
+    main axis gets none."""
+    import copy
+
+    c = copy.deepcopy(claims[0])
+    n = len(c["per_replicate"]["improvement_pct"])
+    rng = np.random.default_rng(1)
+    pts = list(1.4 + 0.6 * rng.standard_normal(n))
+    c["per_replicate"]["improvement_pct"] = pts
+    c["per_replicate"]["oracle_improvement_pct"] = [100.0] * n
+    c["summary"].update(mean=1.4, ci_low=0.8, ci_high=2.0)
+    c["oracle_improvement"].update(mean=100.0, ci_low=100.0, ci_high=100.0)
+    assert CF.fig_claim(c, tmp_path / "c.png")
+    fig = kept[-1]
+    (ins,) = [a for a in fig.axes[0].child_axes if a.get_title() == "zoomed in"]
+    lo, hi, mean = _interval_drawn(fig, "claim_ci_zoom")
+    assert (lo, hi, mean) == pytest.approx((0.8, 2.0, 1.4), rel=1e-12)
+    (dots,) = _by_gid(fig, "claim_ci_zoom_points")
+    assert sorted(dots.get_ydata()) == pytest.approx(sorted(pts), rel=1e-12)
+    y0, y1 = ins.get_ylim()
+    assert y0 < min(pts) and max(pts) < y1 and (2.0 - 0.8) > 0.1 * (y1 - y0)
+    # the same claim with its own (readable) numbers: no inset on the left panel
+    kept.clear()
+    assert CF.fig_claim(claims[0], tmp_path / "c0.png")
+    main_lo, main_hi = kept[-1].axes[0].get_ylim()
+    v = [x for x in claims[0]["per_replicate"]["improvement_pct"] if x is not None]
+    sm = claims[0]["summary"]
+    wide = max(v + [sm["ci_high"]]) - min(v + [sm["ci_low"]]) >= CF.ZOOM_FRACTION * (
+        main_hi - main_lo)
+    assert bool(kept[-1].axes[0].child_axes) != wide

@@ -53,6 +53,36 @@ def _claimed(c: dict) -> str:
     return f">= {lo:g} %" if lo is not None else f"<= {hi:g} %"
 
 
+def _cell(v):
+    return None if v is None else (v.get("mean"), v.get("ci_low"), v.get("ci_high"),
+                                   v.get("verdict"))
+
+
+def no_effect_axes(map_doc: dict, k: int) -> list[int]:
+    """The axes of a two-axis map along which claim k is the same at every value: along each
+    line of the other axis, every point but the scenario's own (its run has the scenario's
+    replicates, not the map's) has the same mean, interval and verdict. paper004's
+    recal_positions scores the positions runs alone, so the centrifuge spins (an axis that
+    changes only the centrifuge runs) left every column of its maps identical. Empty for a
+    one-axis map or where a line has fewer than two such points."""
+    axes = map_doc["axes"]
+    if len(axes) != 2:
+        return []
+    vals = map_doc["claims"][k]["points"]
+    cells = {tuple(p["index"]): (_cell(v), p["base"]) for v, p in zip(vals, map_doc["points"])}
+    out = []
+    for a in (0, 1):
+        lines: dict = {}
+        for (i, j), (cell, base) in cells.items():
+            if not base:
+                lines.setdefault((i, j)[1 - a], []).append(cell)
+        if lines and all(len(ln) >= 2 and None not in ln and len(set(ln)) == 1
+                         for ln in lines.values()) and \
+                len({(i, j)[1 - a] for (i, j) in cells}) == len(lines):
+            out.append(a)
+    return out
+
+
 def fig_map(map_doc: dict, k: int, path: Path) -> bool:
     """Claim k's improvement at every point (95 % interval of the mean over replicates),
     coloured by verdict, the claimed range shaded, the oracle's improvement beside each point,
@@ -112,6 +142,18 @@ def fig_map(map_doc: dict, k: int, path: Path) -> bool:
                   loc="upper left", bbox_to_anchor=(1.01, 1.0))
         ax.grid(True, axis="y", alpha=0.3)
     else:
+        # an axis the claim does not see (every value the same) is drawn as one line of cells,
+        # the scenario's own (or the first), its values named
+        same = no_effect_axes(map_doc, k)
+        base = next((p["index"] for p in pts if p["base"]), [0, 0])
+        keep = [v_p for v_p in zip(vals, pts)
+                if all(v_p[1]["index"][a] == base[a] for a in same)]
+        vals, pts = [v for v, _ in keep], [dict(p) for _, p in keep]
+        for p in pts:
+            p["index"] = [0 if a in same else p["index"][a] for a in (0, 1)]
+        axes = [dict(a, labels=[f"any of its {len(a['labels'])} values"],
+                     name=f"{a['name']}: no effect on this claim")
+                if i in same else a for i, a in enumerate(axes)]
         na, nb = len(axes[0]["labels"]), len(axes[1]["labels"])
         fig, ax = plt.subplots(figsize=(max(5.0, 1.6 * nb + 3), max(3.0, 0.9 * na + 1.8)))
         from matplotlib.colors import to_rgb
@@ -168,6 +210,12 @@ def render_map(map_doc: dict, fig_names: dict) -> str:
         fig = fig_names.get(("map", k))
         if fig:
             L += [f"![claim map]({fig})", ""]
+        for a in no_effect_axes(map_doc, k):
+            ax = map_doc["axes"][a]
+            L += [f"**{ax['name']}** does not change this claim: at every value "
+                  f"({', '.join(ax['labels'])}) each point has the same improvement, interval "
+                  "and verdict (the protocol does not score what that axis changes), so the "
+                  "figure draws one line of cells for it.", ""]
         rows = []
         for v, p in zip(c["points"], map_doc["points"]):
             label = p["label"] + (" (the scenario)" if p["base"] else "")

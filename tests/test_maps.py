@@ -412,3 +412,52 @@ def test_a_map_figure_s_long_claim_and_label_stay_inside_it_apart(tmp_path, monk
     assert [t.get_text() for t in kept[-1].axes[0].get_legend().get_texts()] == [
         "claimed: >= 50 %", "agrees"]
     plt.close(kept[-1])
+
+
+def test_an_axis_the_claim_does_not_see_is_drawn_as_one_line_of_cells(tmp_path, monkeypatch):
+    """paper004's recal_positions scores the positions runs alone: the centrifuge axis left its
+    three map columns identical. Such an axis is named as having no effect and drawn as one
+    column (the scenario's), and the report says so; an axis along which one cell differs is
+    drawn whole."""
+    import matplotlib.pyplot as plt
+
+    from fogbench import io as IO
+    from fogbench import map_report as MR
+
+    kept = []
+    monkeypatch.setattr(IO, "save_figure", lambda fig, path: kept.append(fig))
+
+    def pt(mean):
+        return {"verdict": "agrees", "mean": mean, "ci_low": mean - 3, "ci_high": mean + 3,
+                "n": 5, "oracle_mean": 97.0, "oracle_ci_low": 96.0, "oracle_ci_high": 98.0,
+                "oracle_bounds": True, "side": None}
+
+    rows, cols = ["preset", "ARW x2"], ["+400/-600", "one way", "two ways"]
+    points = [{"index": [i, j], "labels": [rows[i], cols[j]], "label": f"{rows[i]}, {cols[j]}",
+               "base": (i, j) == (0, 0)} for i in range(2) for j in range(3)]
+    # the base point is the scenario's own run (more replicates): its numbers differ
+    vals = [pt(80.7 if p["base"] else (82.0 if p["index"][0] == 0 else 46.0)) for p in points]
+    claim = {"text": "recalibration removes the g drift", "protocol": "recal_positions",
+             "in_sample": False, "metric": "drift_rms_dph", "better": "flnn", "than": "raw",
+             "min_pct": 80.0, "max_pct": None, "points": vals, "source": "paper 004",
+             "sentence": "agrees at every point"}
+    doc = {"axes": [{"name": "device", "labels": rows, "source": "test"},
+                    {"name": "centrifuge spins", "labels": cols, "source": "test"}],
+           "points": points, "claims": [claim], "replicates_per_point": 5}
+    assert MR.no_effect_axes(doc, 0) == [1]
+    assert MR.fig_map(doc, 0, tmp_path / "m.png")
+    ax = kept[-1].axes[0]
+    assert [t.get_text() for t in ax.get_xticklabels()] == ["any of its 3 values"]
+    assert "no effect" in ax.get_xlabel()
+    cells = sorted(t.get_text().split(" %")[0] for t in ax.texts)
+    assert cells == ["+46.0", "+80.7"]                    # the scenario's column, both rows
+    text = MR.render_map(doc, {("map", 0): "figures/map__0.png"})
+    assert "**centrifuge spins** does not change this claim" in text
+    plt.close(kept[-1])
+    # one cell off: the axis matters there, every column is drawn
+    claim["points"] = [dict(v) for v in vals]
+    claim["points"][5]["mean"] = 50.0
+    assert MR.no_effect_axes(doc, 0) == []
+    assert MR.fig_map(doc, 0, tmp_path / "m.png")
+    assert len(kept[-1].axes[0].get_xticklabels()) == 3
+    plt.close(kept[-1])

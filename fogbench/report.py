@@ -329,8 +329,9 @@ def fig_timeseries(it, path: Path, plan=None) -> int:
             ax.plot(t, _moving_mean(errs["raw"], k)[::step], color="black", lw=1.2, zorder=9,
                     label=f"raw's {k}-sample moving mean"
                           + {"trend": "; less its mean, taken out below",
-                             "both": "; below, each curve's, less this about its mean"}.get(
-                                 kind, "; below, each curve's"))
+                             "both": "; the panels below draw each curve's, less this "
+                                     "about its mean"}.get(
+                                 kind, "; the panels below draw each curve's"))
         ax.set_ylabel(f"error, {PAL.ERROR_UNIT}", fontsize=9)
         _min_span(ax, PAL.ERROR_UNIT)
         ax.legend(**LEGEND)
@@ -406,10 +407,14 @@ def fig_dwells(it, path: Path, plan=None) -> None:
     less_oracle = not bars and "oracle" in err and bool(methods)
     if less_oracle:
         err = {lab: (e - err["oracle"] if lab in methods else e) for lab, e in err.items()}
-    lo, hi = _span([err[m] for m in methods])
+
+    def reach(lab):     # what a label's marks reach: its means and, with bars, their ends
+        return [err[lab] - sem[lab], err[lab] + sem[lab]] if bars else [err[lab]]
+
+    lo, hi = _span([y for m in methods for y in reach(m)])
+    o_lo, o_hi = _span(reach("oracle")) if "oracle" in err else (lo, hi)
     oracle_in = not less_oracle and "oracle" in err and bool(methods) and \
-        max(_span([err["oracle"]])[1], hi) - min(_span([err["oracle"]])[0], lo) \
-        <= DWARF * max(hi - lo, 1e-300)
+        max(o_hi, hi) - min(o_lo, lo) <= DWARF * max(hi - lo, 1e-300)
     panels = _chunks(entries, TS_METHOD_LINES, plan) if methods else []
     n_ax = 2 + len(panels)
     fig, axes = plt.subplots(n_ax, 1, figsize=(10.5, 1.2 + 2.4 * n_ax), sharex=True,
@@ -456,8 +461,8 @@ def fig_dwells(it, path: Path, plan=None) -> None:
                        label="oracle (0: what is taken out)")
         else:
             ax.axhline(0.0, color="0.7", lw=0.5)
-        ax.set_ylim(min(lo, err["oracle"].min() if oracle_in else lo) - pad,
-                    max(hi, err["oracle"].max() if oracle_in else hi) + pad)
+        ax.set_ylim(min(lo, o_lo if oracle_in else lo) - pad,
+                    max(hi, o_hi if oracle_in else hi) + pad)
         ax.set_ylabel("dwell mean error\n- oracle's, deg/h" if less_oracle else
                       "dwell mean error,\ndeg/h", fontsize=9)
         ax.legend(**LEGEND)
@@ -562,6 +567,7 @@ def fig_psd(it, path: Path, plan=None):
 
 
 ALLAN_CI = 0.6826894921370859      # one sigma, as the recording's bars
+ALLAN_DECADES_BELOW_RAW = 3         # Allan figure: its axis stops this far below raw / oracle
 
 
 def _has_noise_model(p) -> bool:
@@ -620,6 +626,15 @@ def fig_allan(it, path: Path, plan=None) -> bool:
     shown = {lab: np.where(keeps[lab], ads[lab].adev / DPH, np.nan)[:last + 1]
              for lab in labels}
 
+    # the axis stops ALLAN_DECADES_BELOW_RAW decades below raw's and the oracle's lowest
+    # (static_allan's wavelet_soft, a smoother, ran to 2e-6 deg/h and squeezed raw into the top
+    # two of seven decades); a curve below is named so
+    refs = [float(np.nanmin(shown[lab])) for lab in fixed if np.any(np.isfinite(shown[lab]))]
+    floor = min(refs) * 10.0 ** -ALLAN_DECADES_BELOW_RAW if refs else None
+    if floor is not None and not any(np.nanmin(v) < floor for v in shown.values()
+                                     if np.any(np.isfinite(v))):
+        floor = None
+
     def band(ax, lab):
         ad, keep = ads[lab], keeps[lab]
         ax.fill_between(ad.taus[keep], ad.low[keep] / DPH, ad.high[keep] / DPH,
@@ -632,13 +647,20 @@ def fig_allan(it, path: Path, plan=None) -> bool:
             ax.plot(taus, shown[lab], label=lab, **sty[lab])
             band(ax, lab)
         for e in chunk:
-            _draw_entry(ax, taus, shown, e, sty)
+            below = floor is not None and any(
+                bool(np.nanmin(shown[m]) < floor) for m in e["members"]
+                if np.any(np.isfinite(shown[m])))
+            for ln in _draw_entry(ax, taus, shown, e, sty):
+                if below:
+                    ln.set_label(ln.get_label() + " (falls below the axis)")
             band(ax, e["default"])
         for lab, nm in models:
             tt = np.geomspace(1.0 / p.fs, cut or p.raw.size / p.fs / PAL.ALLAN_MIN_CLUSTERS, 60)
             ax.plot(tt, nm.model_adev(tt) / DPH, color=sty[lab]["color"], lw=1.0, ls=":",
                     zorder=9.0, label=f"{lab}: identified model {nm.spec()}")
         ax.set_ylabel(f"Allan deviation of (output - truth), {PAL.ERROR_UNIT}", fontsize=9)
+        if floor is not None:
+            ax.set_ylim(bottom=floor)
         ax.grid(True, which="both", lw=0.3)
         ax.legend(**LEGEND)
     for ax in axes[:, 0]:

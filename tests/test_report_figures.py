@@ -211,9 +211,10 @@ def test_multi_position_pieces_are_plotted_as_dwell_means_in_deg_per_h(figs, tmp
         half = np.array([abs(s[1][1] - s[0][1]) / 2 for s in segs])
         np.testing.assert_allclose(half, tsem / DPH, rtol=1e-9)
         if lab == "flnn":
-            # zoomed to the methods: raw's 4 deg/h offset is off this panel's scale
+            # zoomed to the methods, their error bars whole (switch_on_repeatability's were
+            # cut): raw's 4 deg/h offset is off this panel's scale
             lo, hi = ax.get_ylim()
-            assert lo <= tmean.min() / DPH and tmean.max() / DPH <= hi
+            assert lo <= (tmean - tsem).min() / DPH and (tmean + tsem).max() / DPH <= hi
             assert hi < 4.0
     # no line joins one dwell to the next: nothing in the figure is a per-sample trace
     for ax in fig.axes:
@@ -495,3 +496,25 @@ def test_log_axis_tick_labels_never_collide_and_at_least_two_show(figs, tmp_path
                 boxes.sort(key=lambda b: (b.x0, b.y0))
                 for a, b in zip(boxes, boxes[1:]):
                     assert not a.overlaps(b), (axis.axis_name, a, b)
+
+
+def test_a_smoother_far_below_raw_does_not_squeeze_the_allan_axis(figs, tmp_path):
+    """static_allan's wavelet_soft ran to 2e-6 deg/h, squeezing raw into the top two of seven
+    decades: the axis stops ALLAN_DECADES_BELOW_RAW decades below raw's and the oracle's
+    lowest, and the curve below says it falls below the axis; one that stays above leaves the
+    axis alone."""
+    it = _static_item(n=4096)
+    e = it.outputs["raw"] - it.piece.truth
+    it.outputs["wavelet_soft"] = it.piece.truth + 1e-5 * (e - e.mean())   # 5 decades down
+    R.fig_allan(it, tmp_path / "a.png")
+    ax = figs[-1].axes[0]
+    raw = next(ln for ln in ax.get_lines() if ln.get_label() == "raw")
+    low = np.nanmin(raw.get_ydata())
+    assert ax.get_ylim()[0] == pytest.approx(low * 10.0 ** -R.ALLAN_DECADES_BELOW_RAW, rel=1e-9)
+    assert any(ln.get_label() == "wavelet_soft (falls below the axis)" for ln in ax.get_lines())
+    figs.clear()
+    it.outputs["wavelet_soft"] = it.piece.truth + 0.1 * (e - e.mean())    # one decade down
+    R.fig_allan(it, tmp_path / "a.png")
+    ax = figs[-1].axes[0]
+    assert ax.get_ylim()[0] < 0.1 * low
+    assert not any("falls below" in ln.get_label() for ln in ax.get_lines())

@@ -144,12 +144,19 @@ def fig_map(map_doc: dict, k: int, path: Path) -> bool:
     else:
         # an axis the claim does not see (every value the same) is drawn as one line of cells,
         # the scenario's own (or the first), its values named
+        # the scenario's own point has its own replicates: the line drawn is another value's,
+        # the map's numbers, with the scenario's run's numbers noted in its cell
         same = no_effect_axes(map_doc, k)
-        base = next((p["index"] for p in pts if p["base"]), [0, 0])
+        base_v, base_p = next(((v, p) for v, p in zip(vals, pts) if p["base"]), (None, None))
+        pick = {a: next(p["index"][a] for p in pts if not p["base"]) for a in same}
         keep = [v_p for v_p in zip(vals, pts)
-                if all(v_p[1]["index"][a] == base[a] for a in same)]
+                if all(v_p[1]["index"][a] == pick[a] for a in same)]
         vals, pts = [v for v, _ in keep], [dict(p) for _, p in keep]
         for p in pts:
+            if same and base_p is not None and base_v is not None and all(
+                    p["index"][a] == base_p["index"][a] for a in (0, 1) if a not in same):
+                p["scenario_note"] = (f"\nthe scenario's run: {_num(base_v['mean'])} % "
+                                      f"[{_num(base_v['ci_low'])}, {_num(base_v['ci_high'])}]")
             p["index"] = [0 if a in same else p["index"][a] for a in (0, 1)]
         axes = [dict(a, labels=[f"any of its {len(a['labels'])} values"],
                      name=f"{a['name']}: no effect on this claim")
@@ -168,7 +175,8 @@ def fig_map(map_doc: dict, k: int, path: Path) -> bool:
                 txt = f"{_num(v['mean'])} %\n[{_num(v['ci_low'])}, {_num(v['ci_high'])}]"
                 if v.get("oracle_mean") is not None and v.get("oracle_bounds"):
                     txt += f"\noracle {_num(v['oracle_mean'])} %"
-                ax.text(j, i, txt + ("\n(the scenario)" if p["base"] else ""), ha="center",
+                ax.text(j, i, txt + ("\n(the scenario)" if p["base"] else "")
+                        + p.get("scenario_note", ""), ha="center",
                         va="center", fontsize=7, color="black",
                         fontweight="bold" if p["base"] else "normal")
         ax.imshow(img, aspect="auto", alpha=0.45)
@@ -213,9 +221,11 @@ def render_map(map_doc: dict, fig_names: dict) -> str:
         for a in no_effect_axes(map_doc, k):
             ax = map_doc["axes"][a]
             L += [f"**{ax['name']}** does not change this claim: at every value "
-                  f"({', '.join(ax['labels'])}) each point has the same improvement, interval "
-                  "and verdict (the protocol does not score what that axis changes), so the "
-                  "figure draws one line of cells for it.", ""]
+                  f"({', '.join(ax['labels'])}) each point the map ran has the same "
+                  "improvement, interval and verdict (the protocol does not score what that "
+                  "axis changes), so the figure draws one line of cells for it: the map's "
+                  "numbers, with the scenario's own run (its own replicates) noted in its "
+                  "cell.", ""]
         rows = []
         for v, p in zip(c["points"], map_doc["points"]):
             label = p["label"] + (" (the scenario)" if p["base"] else "")

@@ -501,7 +501,7 @@ def _log_ticks(ax) -> None:
 
     for axis, lim in ((ax.xaxis, ax.get_xlim()), (ax.yaxis, ax.get_ylim())):
         lo, hi = sorted(lim)
-        if not lo > 0:
+        if axis.get_scale() != "log" or not lo > 0:
             continue
         if math.log10(hi / lo) < LOG_LABEL_DECADES:
             axis.set_major_locator(ticker.LogLocator(subs=(1.0, 2.0, 5.0)))
@@ -1442,6 +1442,7 @@ def _fig_distributions(res: ScenarioResult, mc: dict, path: Path, panel) -> bool
         ax.set_title(f"{prot.name}{flag}: {title}", fontsize=9)
         if metric.endswith("_dph") and all(d.size and np.all(d > 0) for d in data):
             ax.set_yscale("log")
+            _log_ticks(ax)      # paper004's axis had two labels, 10^0 and 10^1
         ax.grid(alpha=0.3)
         if any(ranges):
             ax.legend(fontsize=7, loc="best")

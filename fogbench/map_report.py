@@ -155,14 +155,15 @@ def fig_map(map_doc: dict, k: int, path: Path) -> bool:
         for p in pts:
             if same and base_p is not None and base_v is not None and all(
                     p["index"][a] == base_p["index"][a] for a in (0, 1) if a not in same):
-                p["scenario_note"] = (f"\nthe scenario's run: {_num(base_v['mean'])} % "
+                p["scenario_note"] = (f"\nthe scenario's run:\n{_num(base_v['mean'])} % "
                                       f"[{_num(base_v['ci_low'])}, {_num(base_v['ci_high'])}]")
             p["index"] = [0 if a in same else p["index"][a] for a in (0, 1)]
         axes = [dict(a, labels=[f"any of its {len(a['labels'])} values"],
                      name=f"{a['name']}: no effect on this claim")
                 if i in same else a for i, a in enumerate(axes)]
         na, nb = len(axes[0]["labels"]), len(axes[1]["labels"])
-        fig, ax = plt.subplots(figsize=(max(5.0, 1.6 * nb + 3), max(3.0, 0.9 * na + 1.8)))
+        fig, ax = plt.subplots(figsize=(max(6.0 if same else 5.0, 1.6 * nb + 3),
+                                        max(3.0, 1.0 * na + 1.8)))
         from matplotlib.colors import to_rgb
 
         img = np.ones((na, nb, 3))

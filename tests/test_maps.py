@@ -452,7 +452,7 @@ def test_an_axis_the_claim_does_not_see_is_drawn_as_one_line_of_cells(tmp_path, 
     cells = sorted(t.get_text() for t in ax.texts)
     # the map's numbers (not the scenario's own run's) in both rows, the scenario's noted
     assert [c.split(" %")[0] for c in cells] == ["+46.0", "+82.0"]
-    assert "the scenario's run: +80.7 %" in cells[1] and "scenario" not in cells[0]
+    assert "the scenario's run:\n+80.7 %" in cells[1] and "scenario" not in cells[0]
     text = MR.render_map(doc, {("map", 0): "figures/map__0.png"})
     assert "**centrifuge spins** does not change this claim" in text
     plt.close(kept[-1])

@@ -301,22 +301,32 @@ def fig_timeseries(it, path: Path, plan=None) -> int:
     cap = min(TS_METHOD_LINES, MAX_LINES - len(fixed))
     panels = [(c, False) for c in _chunks(quiet, cap, plan)] + \
         ([(c, True) for c in _chunks(loud, cap, plan)] if loud else [])
-    n_ax = 1 + int(ref_panel) + len(panels)
+    # a static piece (the true rate constant): a rate panel in deg/s would show a flat line
+    # over noise of a few deg/h; the title gives the true rate and the error panels start
+    static = bool(p.truth.size) and float(np.ptp(p.truth)) <= DWELL_TRUTH_PTP
+    n_ax = int(not static) + int(ref_panel) + len(panels)
     fig, axes = plt.subplots(n_ax, 1, figsize=(10.5, 2.1 + 2.3 * (n_ax - 1)), sharex=True,
                              squeeze=False)
     if centre:          # the methods' panel's title runs to two lines
         fig.subplots_adjust(hspace=0.35)
     axes = list(axes[:, 0])
     sty = _styles(labels, widest=1.6, thinnest=0.8, dashed_raw=False, plan=plan)
-    ax = axes.pop(0)
-    if "raw" in it.outputs:
-        ax.plot(t, raw_out / DPS, label="raw", alpha=0.85, **sty["raw"])
-    ax.plot(t, truth / DPS, color=COLORS["truth"], lw=1.4, ls="--", label="truth", zorder=10)
-    ax.set_ylabel(f"rate, {PAL.RATE_UNIT}", fontsize=9)
-    _min_span(ax, PAL.RATE_UNIT)
-    ax.legend(**LEGEND)
-    ax.set_title(f"{it.protocol} / {it.run}: raw output and truth; below, the error against "
-                 "the truth", fontsize=10)
+    head = f"{it.protocol} / {it.run}: "
+    if not static:
+        ax = axes.pop(0)
+        if "raw" in it.outputs:
+            ax.plot(t, raw_out / DPS, label="raw", alpha=0.85, **sty["raw"])
+        ax.plot(t, truth / DPS, color=COLORS["truth"], lw=1.4, ls="--", label="truth",
+                zorder=10)
+        ax.set_ylabel(f"rate, {PAL.RATE_UNIT}", fontsize=9)
+        _min_span(ax, PAL.RATE_UNIT)
+        ax.legend(**LEGEND)
+        ax.set_title(head + "raw output and truth; below, the error against the truth",
+                     fontsize=10)
+        head = ""
+    else:
+        head += (f"a static record (true rate {float(np.mean(p.truth)) / DPH:.4g} deg/h "
+                 "throughout): the error against the truth\n")
     if ref_panel:
         ax = axes.pop(0)
         # the errors as they are, and raw's k-sample moving mean: what the panels below take
@@ -335,6 +345,9 @@ def fig_timeseries(it, path: Path, plan=None) -> int:
         ax.set_ylabel(f"error, {PAL.ERROR_UNIT}", fontsize=9)
         _min_span(ax, PAL.ERROR_UNIT)
         ax.legend(**LEGEND)
+        if head:
+            ax.set_title(head.rstrip("\n") + "; here as it is", fontsize=10)
+            head = ""
     pad = 0.05 * max(width, 1e-12)
     what = {"trend": "error - raw's trend", "fast": f"error, {k}-sample mean",
             "both": "moving mean - raw's trend"}.get(kind, "error vs truth") \
@@ -367,7 +380,7 @@ def fig_timeseries(it, path: Path, plan=None) -> int:
         ax.set_ylabel(f"{what},\n{PAL.ERROR_UNIT}", fontsize=9)
         ax.legend(**LEGEND)
         if i == 0:
-            ax.set_title("methods' error, zoomed to them"
+            ax.set_title(head + "methods' error, zoomed to them"
                          + (f" ({', '.join(big)} above: off this scale)" if big else "")
                          + note, fontsize=9)
     fig.axes[-1].set_xlabel(f"time since power-on, {tname}")

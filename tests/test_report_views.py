@@ -559,7 +559,7 @@ def test_methods_whose_errors_dwarf_the_others_get_their_own_panel(figs, tmp_pat
     fig = figs[-1]
 
     def panel_of(lab):
-        (ax,) = [ax for ax in fig.axes[1:] if lab in [ln.get_label() for ln in ax.get_lines()]]
+        (ax,) = [ax for ax in fig.axes if lab in [ln.get_label() for ln in ax.get_lines()]]
         return ax
 
     quiet, loud = panel_of("wnn"), panel_of("kalman")
@@ -586,3 +586,23 @@ def test_ideal_twins_sit_under_their_lab_protocols(figs, tmp_path):
     assert pos["a"].x0 == pytest.approx(pos["a.ideal"].x0)
     assert pos["b"].x0 == pytest.approx(pos["b.ideal"].x0) and pos["b"].x0 > pos["a"].x0
     assert pos["a.ideal"].y0 < pos["a"].y0
+
+
+def test_a_static_record_has_no_rate_panel_and_its_title_gives_the_true_rate(figs, tmp_path):
+    """thermal_hysteresis, static_allan, paper002: the rate panel drew a flat truth in deg/s
+    over a few deg/h of noise, saying nothing the error panels below do not. A static piece
+    (true rate within 0.01 deg/h) starts with the errors, its title giving the true rate; a
+    piece whose rate moves keeps its rate panel."""
+    it = _dwarfed_item()
+    R.fig_timeseries(it, tmp_path / "t.png", plan=_plan())
+    fig = figs[-1]
+    assert not any("rate" in ax.get_ylabel() for ax in fig.axes)
+    assert "static record (true rate 2063 deg/h" in fig.axes[0].get_title()
+    assert all("deg/h" in ax.get_ylabel() for ax in fig.axes)
+    figs.clear()
+    n = it.piece.t.size
+    step = np.where(np.arange(n) < n // 2, 0.0, 10.0) * DPS_     # a 10 deg/s rate step
+    outs = {lab: y + step for lab, y in it.outputs.items()}
+    R.fig_timeseries(_item(outs, it.piece.truth + step, it.piece.fs), tmp_path / "t.png",
+                     plan=_plan())
+    assert figs[-1].axes[0].get_ylabel() == "rate, deg/s"

@@ -451,6 +451,8 @@ def _placed(labs: dict, imp: str) -> tuple[dict, list]:
         if lab == "raw" or not sm or not (sm.get("n") or sm.get("n_failed")):
             continue
         txt = f"{lab} {ci_text(sm, imp)}"
+        if sm.get("runs"):      # (dynamic_rates' filter oracle: only its static run has one)
+            txt += f" on {', '.join(sm['runs'])} only"
         if lab.startswith("oracle"):
             refs.append(txt)
             continue

@@ -168,7 +168,8 @@ def compare_markdown(rows: list[dict]) -> str:
          "replicate; positive is better than raw): the mean over replicates with its 95 % paired "
          "t-interval (the improvement is taken replicate by replicate on the same data), the "
          "oracle's (the true deterministic error removed) and the filter oracle's (the best "
-         "estimate given the true noise model, where the true rate is constant) beside it, the "
+         "estimate given the true noise model; where every scored piece is static, "
+         "contiguous and of at most 20,000 samples, else -) beside it, the "
          "method's most frequent rank among the methods and the share of replicates where it "
          "had that rank, and its failed replicates. In-sample: scored on the data it was "
          "fitted on (a paper's protocol, flagged). The figure leaves the ideal-lab twins "
@@ -290,8 +291,9 @@ def _figure(rows: list[dict], path: str) -> None:
                Line2D([], [], marker="|", color="black", ls="", ms=9, mew=1.6,
                       label="oracle (true deterministic terms removed)"),
                Line2D([], [], marker="|", color="0.55", ls="", ms=9, mew=1.6,
-                      label="filter oracle (best given the true noise model; only on "
-                            f"static pieces of <= {ORACLE_FILTER_MAX_SAMPLES:,} samples)"),
+                      label="filter oracle (best given the true noise model; where every "
+                            "scored piece is static, contiguous and of <= "
+                            f"{ORACLE_FILTER_MAX_SAMPLES:,} samples)"),
                Line2D([], [], color="0.45", lw=2.0,
                       label="a sweep: its settings' means, min to max")]
     ax.legend(handles=handles, fontsize=7, loc="lower center", bbox_to_anchor=(0.5, 1.0),

@@ -451,6 +451,8 @@ def aggregate(docs: list[dict], sc, plan) -> dict:
                 if have:
                     po.setdefault(lab, {})[metric] = \
                         S.summarize(_over_runs(docs, prot.name, have, lab, metric)).as_dict()
+                    if len(have) < len(runs):   # a mean over fewer runs than the others'
+                        po[lab][metric]["runs"] = list(have)
         # spread over method seeds inside a replicate (paper 002's question)
         for d in docs:
             for r, by_label in d["protocols"].get(prot.name, {}).get("seeds", {}).items():

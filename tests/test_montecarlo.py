@@ -378,3 +378,29 @@ def test_start_series_holds_every_start_and_the_figure_draws_them(scn, tmp_path)
     assert "poly_temp" not in agg["start_series"]["own_run"]["rmse_dph"]   # draws no start
     path = tmp_path / "starts.png"
     assert fig_starts(mc.res0, agg, path) and path.stat().st_size > 1000
+
+
+def test_a_mean_over_fewer_runs_names_them_and_the_takeaway_says_so():
+    """dynamic_rates' filter oracle exists on its static run alone: the report's first line
+    gave it as 65.6 % beside methods averaged over both runs. A label's mean over a subset of
+    the scored runs names them (``runs``), and the takeaway says "on <run> only"."""
+    from types import SimpleNamespace
+
+    from fogbench import claim_figures as CF
+    from fogbench import montecarlo as MC
+
+    docs = [{"replicate": r, "protocols": {"p": {"runs": {
+        "moving": {"raw": {"rmse_dph": 10.0 + r}, "oracle": {"rmse_dph": 9.0 + r}},
+        "static": {"raw": {"rmse_dph": 4.0 + r}, "oracle": {"rmse_dph": 3.0 + r},
+                   "oracle_filter": {"rmse_dph": 1.0 + 0.1 * r}}}}}} for r in range(4)]
+    plan = SimpleNamespace(methods=(), claims=(), paper=(), protocols=(
+        SimpleNamespace(name="p", twin_of=None, in_sample=False),))
+    mc = MC.aggregate(docs, SimpleNamespace(), plan)
+    of = mc["over_runs"]["p"]["oracle_filter"]["rmse_dph"]
+    assert of["runs"] == ["static"] and of["mean"] == pytest.approx(1.15)
+    assert "runs" not in mc["over_runs"]["p"]["raw"]["rmse_dph"]          # both runs
+    assert mc["over_runs"]["p"]["raw"]["rmse_dph"]["mean"] == pytest.approx(8.5)
+    _, refs = CF._placed({"oracle_filter": {"improvement_rmse_pct": {
+        "n": 4, "mean": 65.6, "ci_low": 54.7, "ci_high": 76.6, "runs": ["static"]}}},
+        "improvement_rmse_pct")
+    assert refs and refs[0].endswith("on static only")

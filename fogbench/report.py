@@ -1459,6 +1459,16 @@ def _fig_distributions(res: ScenarioResult, mc: dict, path: Path, panel) -> bool
         ax.grid(alpha=0.3)
         if any(ranges):
             ax.legend(fontsize=7, loc="best")
+    # panels of one metric share its y range, so that protocols compare at a glance
+    # (switch_on_repeatability's calibrate_once and recalibrate had different scales)
+    used = list(axes.flat[:len(panels)])
+    if len({m for _, m, *_ in panels}) == 1 and len(used) > 1 and \
+            len({a.get_yscale() for a in used}) == 1:
+        lo = min(a.get_ylim()[0] for a in used)
+        hi = max(a.get_ylim()[1] for a in used)
+        for a in used:
+            a.set_ylim(lo, hi)
+            _log_ticks(a)
     fig.tight_layout()
     _save(fig, path)
     return True

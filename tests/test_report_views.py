@@ -606,3 +606,24 @@ def test_a_static_record_has_no_rate_panel_and_its_title_gives_the_true_rate(fig
     R.fig_timeseries(_item(outs, it.piece.truth + step, it.piece.fs), tmp_path / "t.png",
                      plan=_plan())
     assert figs[-1].axes[0].get_ylabel() == "rate, deg/s"
+
+
+def test_protocols_on_one_metric_share_the_y_range(figs, tmp_path):
+    """switch_on_repeatability's calibrate_once and recalibrate panels had different y scales,
+    so equal heights meant different errors: panels of one metric share its range, holding
+    every value."""
+    plan = _plan()
+    rng = np.random.default_rng(3)
+    labels = ["raw", "kalman", "wnn"]
+    prots = [SimpleNamespace(name=f"p{i}", in_sample=False) for i in range(2)]
+    plan.protocols, plan.claims = prots, []
+    series = {p.name: {"rmse_dph": {lab: list((1.0 + 9.0 * i) * (3.0 + rng.random(20)))
+                                    for lab in labels}} for i, p in enumerate(prots)}
+    mc = {"replicates": 20, "series": series,
+          "over_runs": {p.name: {lab: {"rmse_dph": {}} for lab in labels} for p in prots}}
+    assert R.fig_replicates(SimpleNamespace(plan=plan), mc, tmp_path / "r.png")
+    shown = [ax for ax in figs[-1].axes if ax.get_visible()]
+    assert len(shown) == 2 and shown[0].get_ylim() == shown[1].get_ylim()
+    lo, hi = shown[0].get_ylim()
+    allv = [v for p in series.values() for vs in p["rmse_dph"].values() for v in vs]
+    assert lo <= min(allv) and max(allv) <= hi

@@ -778,6 +778,16 @@ def fig_thermal(res: ScenarioResult, run: str, path: Path) -> bool:
                       label=f"bias vs temperature, {name}"
                             + (f" (|dT/dt| <= {steady:.2g} deg C/min)" if name == "steady"
                                else ""))
+    # beside it, the simulation's own thermal term (its truth: the temperature law and the
+    # Shupe term in dT/dt), where the bias carries more (thermal_with_motion's g terms by
+    # position scatter the raw points about it)
+    terms = getattr(rd.fog, "terms", None) or {}
+    if "temperature" in terms:
+        th_term = M.smooth(terms["temperature"][:, j], rd.fs, 100.0) / DPH
+        rest = float(np.mean(bias - th_term))
+        ax_l.plot(temp, th_term + rest, color="black", lw=1.2, zorder=3, gid="loop:true_term",
+                  label="the simulated thermal term alone (the truth; 100 s means), plus "
+                        f"the rest's mean ({rest:.3g} {PAL.ERROR_UNIT})")
     ax_l.set_xlabel("sensor reading, deg C (100 s means)" if has_sensor
                     else "coil temperature (true), deg C (100 s means)")
     lo, hi = PAL.min_span(*ax_l.get_xlim(), "deg C")

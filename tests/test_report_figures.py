@@ -518,3 +518,21 @@ def test_a_smoother_far_below_raw_does_not_squeeze_the_allan_axis(figs, tmp_path
     ax = figs[-1].axes[0]
     assert ax.get_ylim()[0] < 0.1 * low
     assert not any("falls below" in ln.get_label() for ln in ax.get_lines())
+
+
+def test_the_thermal_loop_draws_the_true_thermal_term_beside_the_raw_points(figs, tmp_path):
+    """thermal_with_motion's raw bias carries g terms by position that scatter the loop: the
+    simulation's thermal term is drawn beside it, shifted by the mean of the rest. With the
+    rest a 1 deg/h constant, the line goes through every raw point."""
+    res = _loop_res(30.0)
+    rd = res.data["r1"]
+    thermal = rd.fog.raw.copy()
+    rd.fog.raw = thermal + 1.0 * DPH
+    rd.fog.terms = {"temperature": thermal}
+    assert R.fig_thermal(res, "r1", tmp_path / "th.png")
+    lines = {ln.get_gid(): ln for ax in figs[-1].axes for ln in ax.get_lines()}
+    line = lines["loop:true_term"]
+    pts = np.concatenate([lines[f"loop:{k}"].get_ydata() for k in ("heating", "cooling",
+                                                                    "steady")])
+    np.testing.assert_allclose(np.sort(line.get_ydata()), np.sort(pts), atol=1e-9)
+    assert "rest's mean (1 deg/h)" in line.get_label()

@@ -840,11 +840,7 @@ def fig_coefficients(res: ScenarioResult, protocol: str, path: Path) -> bool:
     if not rows or none_identified(res, protocol):
         return False
     run0 = rows[0][0]
-    fig, ax = plt.subplots(figsize=(10, 4.8))
     true = rows[0][2]["coef_true_dph"]
-    x = np.arange(len(TERM_NAMES))
-    tv = np.array([true[n] for n in TERM_NAMES])
-    ax.plot(x, tv, "ks", ms=8, label=f"true ({run0})", zorder=5)
     labels = list(dict.fromkeys(r[1] for r in rows))
     width = 0.8 / max(1, len(labels))
     ests = {}
@@ -857,34 +853,56 @@ def fig_coefficients(res: ScenarioResult, protocol: str, path: Path) -> bool:
         ests[lab] = (np.array([m["coef_true_dph"][n] + m["coef_errors_dph"][n]
                                for n in TERM_NAMES]),
                      np.array([ident is None or n in ident for n in TERM_NAMES]))
-    shown = [tv] + [e[ok] for e, ok in ests.values()]
-    span = max(float(np.max(np.abs(np.concatenate(shown)))), 1e-12) * 1.25
+    tv = np.array([true[n] for n in TERM_NAMES])
+    # one panel per unit, each on its own scale (on one axis the g^2 terms were flat bars
+    # beside a 7.8 deg/h bias)
+    groups = [g for g in COEF_GROUPS if all(i < len(TERM_NAMES) for i in g[1])]
+    fig, axs = plt.subplots(1, len(groups), figsize=(11, 4.8), squeeze=False,
+                            gridspec_kw={"width_ratios": [len(g[1]) + 0.6 for g in groups],
+                                         "wspace": 0.35})
     any_hidden = False
-    for i, (lab, (est, ok)) in enumerate(ests.items()):
-        c = _color(lab, list(ests), res.plan)
-        xi = x + (i - (len(ests) - 1) / 2) * width
-        ax.bar(xi[ok], est[ok], width, alpha=0.75, color=c)
-        # the legend key apart: with no identified bar there was no patch to take its colour
-        ax.bar([np.nan], [np.nan], width, alpha=0.75, color=c, label=lab)
-        if (~ok).any():
-            any_hidden = True
-            clip = np.clip(est[~ok], -span, span)
-            ax.bar(xi[~ok], clip, width, color="none", edgecolor=c, hatch="///", lw=0.8)
-            for xx, v in zip(xi[~ok], clip):
-                ax.text(xx, 0.0, NOT_IDENTIFIED, rotation=90, ha="center",
-                        va="bottom" if v <= 0 else "top", fontsize=7, color=c)
+    for ax, (unit, idx) in zip(axs[0], groups):
+        idx = np.asarray(idx)
+        x = np.arange(idx.size)
+        ax.plot(x, tv[idx], "ks", ms=8, label=f"true ({run0})", zorder=5)
+        shown = [tv[idx]] + [e[idx][ok[idx]] for e, ok in ests.values()]
+        span = max(float(np.max(np.abs(np.concatenate(shown)))), 1e-12) * 1.25
+        for i, (lab, (est, ok)) in enumerate(ests.items()):
+            c = _color(lab, list(ests), res.plan)
+            xi = x + (i - (len(ests) - 1) / 2) * width
+            e, k = est[idx], ok[idx]
+            ax.bar(xi[k], e[k], width, alpha=0.75, color=c)
+            # the legend key apart: with no identified bar there was no patch to take its colour
+            ax.bar([np.nan], [np.nan], width, alpha=0.75, color=c, label=lab)
+            if (~k).any():
+                any_hidden = True
+                clip = np.clip(e[~k], -span, span)
+                ax.bar(xi[~k], clip, width, color="none", edgecolor=c, hatch="///", lw=0.8)
+                for xx, v in zip(xi[~k], clip):
+                    ax.text(xx, 0.5 * v, NOT_IDENTIFIED, rotation=90, ha="center",
+                            va="center", fontsize=6.5, color=c,
+                            bbox={"facecolor": "white", "alpha": 0.8, "edgecolor": "none",
+                                  "pad": 0.5})
+        ax.set_ylim(-span, span)
+        ax.set_xticks(x, [TERM_NAMES[i] for i in idx])
+        ax.set_xlim(-0.6, idx.size - 0.4)
+        ax.set_ylabel(unit, fontsize=9)
+        ax.axhline(0, color="0.7", lw=0.5)
+    ax = axs[0, -1]
     if any_hidden:
         ax.bar([np.nan], [np.nan], width, color="none", edgecolor="0.3", hatch="///",
                label=f"{NOT_IDENTIFIED} (arbitrary value, clipped)")
-    ax.set_ylim(-span, span)
-    ax.set_xticks(x, [f"{n}" for n in TERM_NAMES])
-    ax.set_ylabel("deg/h (d0), deg/h/g (d1-d3), deg/h/g^2 (d4-d9)")
-    ax.set_title(f"{protocol}: coefficients fitted on {_fit_runs(res, protocol)} against the "
-                 f"true ones of {run0}\n(terms d0-d9 as in paper 004, Table 1)", fontsize=10)
-    ax.axhline(0, color="0.7", lw=0.5)
+    fig.suptitle(f"{protocol}: coefficients fitted on {_fit_runs(res, protocol)} against the "
+                 f"true ones of {run0}\n(terms d0-d9 as in paper 004, Table 1; each unit on "
+                 "its own scale)", fontsize=10)
     ax.legend(**LEGEND)         # right of the bars: inside, it covered d5-d7
     _save(fig, path)
     return True
+
+
+#: The coefficient figure's panels: (unit, indices into TERM_NAMES).
+COEF_GROUPS = (("d0, deg/h", (0,)), ("d1-d3, deg/h/g", (1, 2, 3)),
+               ("d4-d9, deg/h/g^2", (4, 5, 6, 7, 8, 9)))
 
 
 def _paper_value(plan, method, metric, run, segment=None):

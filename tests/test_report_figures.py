@@ -362,19 +362,25 @@ def _coef_res():
 
 
 def test_unidentified_coefficients_are_hatched_clipped_and_labelled(figs, tmp_path):
+    """Three panels, one per unit (deg/h, deg/h/g, deg/h/g^2: on one axis the g^2 terms were
+    flat bars beside the 7.8 deg/h bias), each scaled to its own true values and identified
+    estimates; the unidentified d8, d9 (-7300, -9000 deg/h/g^2) hatched, clipped, labelled."""
     res = _coef_res()
     assert R.fig_coefficients(res, "held_out", tmp_path / "c.png")
     fig = figs[-1]
-    ax = fig.axes[0]
-    lo, hi = ax.get_ylim()
-    assert hi - lo < 100.0              # the -9000 deg/h/g^2 of an unidentified term is clipped
-    assert lo <= -7.8 or hi >= 7.8      # the true d0 is on the axis
-    hatched = [p for p in ax.patches if p.get_hatch() and np.isfinite(p.get_height())]
+    d0, dg, dg2 = fig.axes[:3]
+    assert [t.get_text() for t in dg2.get_xticklabels()] == [f"d{i}" for i in range(4, 10)]
+    assert "deg/h/g^2" in dg2.get_ylabel() and "deg/h/g" in dg.get_ylabel()
+    assert d0.get_ylim()[1] >= 7.8 and dg.get_ylim()[1] >= 7.1
+    lo, hi = dg2.get_ylim()
+    assert hi - lo < 5.0                # the g^2 panel on the g^2 terms' scale (|1.3| max)
+    assert hi >= 1.3 + 0.05
+    hatched = [p for p in dg2.patches if p.get_hatch() and np.isfinite(p.get_height())]
     assert len(hatched) == 2
-    texts = [t.get_text() for t in ax.texts]
+    texts = [t.get_text() for t in dg2.texts]
     assert texts.count(R.NOT_IDENTIFIED) == 2
     assert any(R.NOT_IDENTIFIED in t for t in _legend_texts(fig))
-    title = ax.get_title()
+    title = fig._suptitle.get_text()
     assert "fit" in title and "test" in title and "first power-on" not in title
     assert _plotted_labels(fig) <= _legend_texts(fig)
 

@@ -1334,6 +1334,8 @@ def write_run_dir(res: ScenarioResult, out: Path, recording: bool = True, save_d
             if figure("start distributions", fig_starts, res, montecarlo,
                       tmp / "figures" / "starts.png"):
                 fig_names[("starts",)] = "figures/starts.png"
+            if figure("metric by run", fig_runs, res, montecarlo, tmp / "figures" / "runs.png"):
+                fig_names[("runs",)] = "figures/runs.png"
             fig_names.update(draw_claim_figures(montecarlo, tmp / "figures", figure))
         if map_doc is not None:
             from .map_report import fig_map
@@ -1536,12 +1538,70 @@ def fig_starts(res: ScenarioResult, mc: dict, path: Path) -> bool:
         def means(ax, i, lab):
             m = [np.mean([x for x in rep if x is not None]) for rep in by_label[lab]
                  if any(x is not None for x in rep)]
-            ax.plot(np.full(len(m), i + 0.32), m, "x", ms=4, color="k", zorder=4)
+            ax.plot(np.full(len(m), i + 0.32), m, "x", ms=4, color="k", zorder=4,
+                    label="replicate means (what the claims use)" if i == 0 else None)
+            if i == 0:
+                ax.legend(fontsize=7, loc="best")
 
         return (labels, pooled, f"{mc['replicates']} replicates x {k} starts",
                 {"jitter": 0.2, "ms": 2, "alpha": 0.35}, means)
 
     return _fig_distributions(res, mc, path, panel)
+
+
+def fig_runs(res: ScenarioResult, mc: dict, path: Path) -> bool:
+    """Each protocol that scores two or more runs (power-ons), its ideal-lab twins left out:
+    the key metric on each run, mean and 95 % t-interval over the replicates, raw, the oracle
+    and every method (a sweep: its default setting) joined across the runs; panels of one
+    metric on one y range. What switch_on_repeatability is about, calibrate once against
+    calibrate at every power-on, showed only as one power-on per figure. None to draw: False."""
+    summary = mc.get("summary") or {}
+    panels = []
+    for prot in res.plan.protocols:
+        runs = list((summary.get(prot.name) or {}).keys())
+        if getattr(prot, "twin_of", None) or len(runs) < 2:
+            continue
+        metric = key_metric(mc, prot.name, res.plan)
+        if metric:
+            panels.append((prot, metric, runs))
+    if not panels:
+        return False
+    fig, axes = plt.subplots(1, len(panels), figsize=(0.9 + 4.6 * len(panels), 4.6),
+                             squeeze=False, sharey=len({m for _, m, _ in panels}) == 1)
+    for ax, (prot, metric, runs) in zip(axes[0], panels):
+        by_run = summary[prot.name]
+        labels = [lab for lab in ("raw", "oracle") if lab in by_run[runs[0]]]
+        entries = _method_entries(list(by_run[runs[0]]), res.plan)
+        labels += [e["default"] for e in entries]
+        names = {e["default"]: _sweep_names(e)[0] if e["group"] else e["default"]
+                 for e in entries}
+        x = np.arange(len(runs))
+        width = 0.5 / max(1, len(labels) - 1)
+        for i, lab in enumerate(labels):
+            sm = [(by_run.get(r, {}).get(lab) or {}).get(metric) or {} for r in runs]
+            m = np.array([np.nan if v.get("mean") is None else v["mean"] for v in sm])
+            lo = np.array([np.nan if v.get("ci_low") is None else v["ci_low"] for v in sm])
+            hi = np.array([np.nan if v.get("ci_high") is None else v["ci_high"] for v in sm])
+            if not np.any(np.isfinite(m)):
+                continue
+            xi = x + (i - (len(labels) - 1) / 2) * width
+            ax.errorbar(xi, m, yerr=[m - np.where(np.isfinite(lo), lo, m),
+                                     np.where(np.isfinite(hi), hi, m) - m],
+                        fmt="-o", ms=4, lw=1.0, capsize=3,
+                        color=_color(lab, list(by_run[runs[0]]), res.plan),
+                        mfc="none" if lab == "raw" else None, label=names.get(lab, lab),
+                        gid=f"runs:{prot.name}:{lab}")
+        ax.set_xticks(x, runs, rotation=30, ha="right", rotation_mode="anchor", fontsize=8)
+        unit = unit_of(metric)
+        ax.set_ylabel(metric if unit == "as the metric" else f"{metric}, {unit}", fontsize=9)
+        flag = " (in-sample)" if prot.in_sample else ""
+        ax.set_title(f"{prot.name}{flag}: {metric} on each run\n(mean and 95 % interval over "
+                     f"{mc['replicates']} replicates)", fontsize=9)
+        ax.grid(alpha=0.3)
+    axes[0, -1].legend(**LEGEND)
+    fig.tight_layout()
+    _save(fig, path)
+    return True
 
 
 def recording_replicates(mc: dict, work=None) -> dict:
@@ -1684,6 +1744,9 @@ def render_montecarlo(res: ScenarioResult, mc: dict, fig_names: dict) -> str:
                       + "; ".join(bits) + ".", ""]
     if ("replicates",) in fig_names:
         L += [f"![distributions over replicates]({fig_names[('replicates',)]})", ""]
+    if ("runs",) in fig_names:
+        L += ["Each protocol's key metric run by run (power-on by power-on), over replicates:",
+              "", f"![key metric by run]({fig_names[('runs',)]})", ""]
     if ("starts",) in fig_names:
         L += ["The methods that draw random starts, start by start (points: every start of "
               "every replicate; crosses: the replicate means the claims use):", "",

@@ -627,3 +627,46 @@ def test_protocols_on_one_metric_share_the_y_range(figs, tmp_path):
     lo, hi = shown[0].get_ylim()
     allv = [v for p in series.values() for vs in p["rmse_dph"].values() for v in vs]
     assert lo <= min(allv) and max(allv) <= hi
+
+
+def test_the_key_metric_run_by_run_is_drawn_with_its_interval(figs, tmp_path):
+    """switch_on_repeatability compares calibrating once with calibrating at every power-on,
+    yet showed one power-on per figure. runs.png: per protocol scoring two or more runs (twins
+    left out), each output's key metric on each run with its 95 % interval over replicates,
+    the numbers of metrics.json's montecarlo.summary."""
+    plan = _plan()
+    prots = [SimpleNamespace(name="once", in_sample=False, twin_of=None),
+             SimpleNamespace(name="every", in_sample=False, twin_of=None),
+             SimpleNamespace(name="every.ideal", in_sample=False, twin_of="every"),
+             SimpleNamespace(name="single", in_sample=False, twin_of=None)]
+    plan.protocols, plan.claims = prots, []
+    runs = ["power_on_2", "power_on_3", "power_on_4"]
+    labels = ["raw", "oracle", "kalman"] + SWEEP
+
+    def sm(v):
+        return {"drift_rms_dph": {"mean": v, "ci_low": v - 0.1, "ci_high": v + 0.2}}
+
+    summary = {p.name: {r: {lab: sm(1.0 + i + 0.01 * j + 0.3 * k)
+                            for k, lab in enumerate(labels)}
+                        for j, r in enumerate(runs if p.name != "single" else runs[:1])}
+               for i, p in enumerate(prots)}
+    mc = {"replicates": 20, "summary": summary,
+          "over_runs": {p.name: {"raw": {"drift_rms_dph": {}}} for p in prots}}
+    assert R.fig_runs(SimpleNamespace(plan=plan), mc, tmp_path / "runs.png")
+    fig = figs[-1]
+    assert len(fig.axes) == 2                     # the twin and the one-run protocol left out
+    for ax, name in zip(fig.axes, ("once", "every")):
+        assert ax.get_title().startswith(f"{name}: drift_rms_dph")
+        assert [t.get_text() for t in ax.get_xticklabels()] == runs
+        drawn = {c.get_label(): c for c in ax.containers}
+        assert set(drawn) == {"raw", "oracle", "kalman", "band default (level-6)"}
+        for lab, shown in (("kalman", "kalman"), (DEFAULT, "band default (level-6)")):
+            c = drawn[shown]
+            want = [summary[name][r][lab]["drift_rms_dph"] for r in runs]
+            np.testing.assert_allclose(c.lines[0].get_ydata(), [w["mean"] for w in want])
+            segs = c.lines[2][0].get_segments()
+            np.testing.assert_allclose([s[:, 1].min() for s in segs],
+                                       [w["ci_low"] for w in want])
+            np.testing.assert_allclose([s[:, 1].max() for s in segs],
+                                       [w["ci_high"] for w in want])
+    assert fig.axes[0].get_ylim() == fig.axes[1].get_ylim()

@@ -180,8 +180,8 @@ def _zoom_inset(ax, values, sm: dict | None, color, gid: str, bounds=()) -> bool
     # the interval the verdict rests on decides (paper000's -0.89 [-8.5, 6.7] deg/h among
     # points to +45 on a 700 deg/h axis); without one, the points
     judged = ci if len(ci) == 3 else v
-    if max(judged) - min(judged) >= ZOOM_FRACTION * (y1 - y0):
-        return False
+    if len(v) < 2 or not hi > lo or max(judged) - min(judged) >= ZOOM_FRACTION * (y1 - y0):
+        return False        # (one value or all equal: nothing an inset could spread out)
     pad = 0.15 * (hi - lo) if hi > lo else max(1e-12, 0.01 * abs(hi))
     zlo, zhi = lo - pad, hi + pad
     upper = 0.5 * (lo + hi) < 0.5 * (y0 + y1)       # the column sits low: the inset goes high
@@ -450,9 +450,7 @@ def _placed(labs: dict, imp: str) -> tuple[dict, list]:
         sm = mets.get(imp)
         if lab == "raw" or not sm or not (sm.get("n") or sm.get("n_failed")):
             continue
-        txt = f"{lab} {ci_text(sm, imp)}"
-        if sm.get("runs"):      # (dynamic_rates' filter oracle: only its static run has one)
-            txt += f" on {', '.join(sm['runs'])} only"
+        txt = f"{lab} {ci_text(sm, imp)}"   # ("on <run> only": a mean over fewer runs)
         if lab.startswith("oracle"):
             refs.append(txt)
             continue

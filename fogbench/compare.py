@@ -161,6 +161,8 @@ def _iv(s: dict | None) -> str:
 
 
 def compare_markdown(rows: list[dict]) -> str:
+    from .runner import ORACLE_FILTER_MAX_SAMPLES
+
     L = [TITLE, "",
          "Per scenario and protocol, every method on the scenario's headline metric (its first "
          "claim's, else improvement_rmse_pct: percent of the raw output's RMS error removed; an "
@@ -169,7 +171,8 @@ def compare_markdown(rows: list[dict]) -> str:
          "t-interval (the improvement is taken replicate by replicate on the same data), the "
          "oracle's (the true deterministic error removed) and the filter oracle's (the best "
          "estimate given the true noise model; where every scored piece is static, "
-         "contiguous and of at most 20,000 samples, else -) beside it, the "
+         f"contiguous and of at most {ORACLE_FILTER_MAX_SAMPLES:,} samples, else -) beside "
+         "it, the "
          "method's most frequent rank among the methods and the share of replicates where it "
          "had that rank, and its failed replicates. In-sample: scored on the data it was "
          "fitted on (a paper's protocol, flagged). The figure leaves the ideal-lab twins "

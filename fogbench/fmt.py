@@ -55,6 +55,8 @@ def ci_text(sm: dict | None, metric: str) -> str:
         txt += f" [{fmt(sm['ci_low'], metric)}, {fmt(sm['ci_high'], metric)}]"
     if sm.get("n_failed"):
         txt += f" ({sm['n_failed']} failed)"
+    if sm.get("runs"):      # a mean over fewer runs than the protocol scores (montecarlo)
+        txt += f" on {', '.join(sm['runs'])} only"
     return txt
 
 

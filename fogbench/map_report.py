@@ -148,7 +148,10 @@ def fig_map(map_doc: dict, k: int, path: Path) -> bool:
         # the map's numbers, with the scenario's run's numbers noted in its cell
         same = no_effect_axes(map_doc, k)
         base_v, base_p = next(((v, p) for v, p in zip(vals, pts) if p["base"]), (None, None))
-        pick = {a: next(p["index"][a] for p in pts if not p["base"]) for a in same}
+        # along a no-effect axis, a value other than the scenario's own (whose cell holds the
+        # scenario's run, not the map's numbers)
+        pick = {a: next((p["index"][a] for p in pts if not p["base"] and (
+            base_p is None or p["index"][a] != base_p["index"][a])), 0) for a in same}
         keep = [v_p for v_p in zip(vals, pts)
                 if all(v_p[1]["index"][a] == pick[a] for a in same)]
         vals, pts = [v for v, _ in keep], [dict(p) for _, p in keep]
@@ -225,8 +228,9 @@ def render_map(map_doc: dict, fig_names: dict) -> str:
                   f"({', '.join(ax['labels'])}) each point the map ran has the same "
                   "improvement, interval and verdict (the protocol does not score what that "
                   "axis changes), so the figure draws one line of cells for it: the map's "
-                  "numbers, with the scenario's own run (its own replicates) noted in its "
-                  "cell.", ""]
+                  "numbers" + (", with the scenario's own run (its own replicates) noted in "
+                               "its cell" if any(p["base"] for p in map_doc["points"])
+                               else "") + ".", ""]
         rows = []
         for v, p in zip(c["points"], map_doc["points"]):
             label = p["label"] + (" (the scenario)" if p["base"] else "")

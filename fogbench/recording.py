@@ -1173,10 +1173,8 @@ def _blueprint(res, w: _Writer, reps: dict | None = None, active_tab: str = "Ove
                 "method keeps raw's noise, fast and slow)"
                 if len(kinds_k) == 1 and kinds_k[0][0] == "both" else
                 "Error (less what every method keeps alike)" if kinds_k else "Error vs truth")
-        if kinds and all(c for _, _, c in kinds):
+        if kinds and all(c for _, _, c in kinds):    # (one run: all alike, mean_blind)
             what += ", each less its mean (the claims score the std, blind to it)"
-        elif any(c for _, _, c in kinds):
-            what += ", some runs' curves less their means (claims on the std)"
         axis, off = _y_axis_zoomed(w, shown)
         note = f"; {' and '.join(off)} off this scale" if off else ""
         plain = "; as they are: tab Errors" if (kinds or off) and len(error_views) > 1 else \

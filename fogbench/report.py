@@ -397,7 +397,10 @@ def fig_dwells(it, path: Path, plan=None) -> None:
     rate (the positions); raw's and the oracle's dwell-mean error; then the methods'
     dwell-mean errors zoomed to them (the oracle beside them unless it dwarfs them), at most
     TS_METHOD_LINES methods a panel, whole families together. Up to DWELL_BARS_MAX dwells
-    each mean has its standard error as a bar, beyond that the means are joined by lines. The
+    each mean has its standard error as a bar; beyond that the means are joined by lines and
+    the methods' panels draw each method's dwell means less the oracle's (the oracle the zero
+    line): for a model of the deterministic terms, the error it leaves without the noise all
+    outputs share (a denoiser's difference also holds the noise it took out). The
     members of a method family share its hue and differ in marker (DWELL_MARKERS): paper004's
     flnn_recorded and flnn_shuffled were two dark greens of one dot."""
     p = it.piece
@@ -416,7 +419,8 @@ def fig_dwells(it, path: Path, plan=None) -> None:
         err[lab], sem[lab] = e / DPH, se / DPH
     # beyond DWELL_BARS_MAX dwells the methods' noisy means tangle (thermal_with_motion's 133):
     # their panels draw each method's dwell mean less the oracle's, the deterministic error it
-    # leaves, which holds no noise (method - oracle = true terms - the method's estimate)
+    # leaves, which holds no noise for a model of the terms (method - oracle = true terms -
+    # the method's estimate; a denoiser's difference also holds the noise it took out)
     less_oracle = not bars and "oracle" in err and bool(methods)
     if less_oracle:
         err = {lab: (e - err["oracle"] if lab in methods else e) for lab, e in err.items()}
@@ -1491,9 +1495,12 @@ def _fig_distributions(res: ScenarioResult, mc: dict, path: Path, panel) -> bool
             ax.legend(fontsize=7, loc="best")
     # panels of one metric share its y range, so that protocols compare at a glance
     # (switch_on_repeatability's calibrate_once and recalibrate had different scales)
-    used = list(axes.flat[:len(panels)])
-    if len({m for _, m, *_ in panels}) == 1 and len(used) > 1 and \
-            len({a.get_yscale() for a in used}) == 1:
+    by_metric: dict = {}
+    for a, (_, metric, *_) in zip(axes.flat, panels):
+        by_metric.setdefault((metric, a.get_yscale()), []).append(a)
+    for used in by_metric.values():
+        if len(used) < 2:
+            continue
         lo = min(a.get_ylim()[0] for a in used)
         hi = max(a.get_ylim()[1] for a in used)
         for a in used:
@@ -1570,8 +1577,10 @@ def fig_runs(res: ScenarioResult, mc: dict, path: Path) -> bool:
                              squeeze=False, sharey=len({m for _, m, _ in panels}) == 1)
     for ax, (prot, metric, runs) in zip(axes[0], panels):
         by_run = summary[prot.name]
-        labels = [lab for lab in ("raw", "oracle") if lab in by_run[runs[0]]]
-        entries = _method_entries(list(by_run[runs[0]]), res.plan)
+        every = list(dict.fromkeys(lab for r in runs for lab in by_run[r]))
+        refs = ("raw", "oracle", "oracle_filter")
+        labels = [lab for lab in refs if lab in every]
+        entries = _method_entries([lab for lab in every if lab not in refs], res.plan)
         labels += [e["default"] for e in entries]
         names = {e["default"]: _sweep_names(e)[0] if e["group"] else e["default"]
                  for e in entries}
@@ -1587,8 +1596,9 @@ def fig_runs(res: ScenarioResult, mc: dict, path: Path) -> bool:
             xi = x + (i - (len(labels) - 1) / 2) * width
             ax.errorbar(xi, m, yerr=[m - np.where(np.isfinite(lo), lo, m),
                                      np.where(np.isfinite(hi), hi, m) - m],
-                        fmt="-o", ms=4, lw=1.0, capsize=3,
-                        color=_color(lab, list(by_run[runs[0]]), res.plan),
+                        fmt=":o" if lab == "oracle_filter" else "-o", ms=4, lw=1.0,
+                        capsize=3, color=(COLORS["oracle"] if lab == "oracle_filter" else
+                                          _color(lab, every, res.plan)),
                         mfc="none" if lab == "raw" else None, label=names.get(lab, lab),
                         gid=f"runs:{prot.name}:{lab}")
         ax.set_xticks(x, runs, rotation=30, ha="right", rotation_mode="anchor", fontsize=8)

@@ -104,7 +104,9 @@ def shown_error(kind: str | None, err: np.ndarray, trend, k: int,
         out = moving_mean(err, k) - trend
     else:
         out = np.asarray(err, dtype=float)
-    return out - float(np.mean(out)) if centre and out.size else out
+    if not (centre and np.any(np.isfinite(out))):
+        return out
+    return out - float(np.nanmean(out))    # (a NaN sample leaves the rest of the curve)
 
 
 #: Metrics that take each output's mean out before they measure it (``std_dps``, ``std_dph``:

@@ -348,12 +348,17 @@ def test_an_interval_lost_in_its_marker_gets_a_zoomed_inset(claims, kept, tmp_pa
     assert sorted(dots.get_ydata()) == pytest.approx(sorted(pts), rel=1e-12)
     y0, y1 = ins.get_ylim()
     assert y0 < min(pts) and max(pts) < y1 and (2.0 - 0.8) > 0.1 * (y1 - y0)
-    # the same claim with its own (readable) numbers: no inset on the left panel
+    # a narrow interval among spread points (paper000's -0.89 [-8.5, 6.7] with points to +45
+    # on a 700-wide axis): the interval decides, an inset
     kept.clear()
-    assert CF.fig_claim(claims[0], tmp_path / "c0.png")
-    main_lo, main_hi = kept[-1].axes[0].get_ylim()
-    v = [x for x in claims[0]["per_replicate"]["improvement_pct"] if x is not None]
-    sm = claims[0]["summary"]
-    wide = max(v + [sm["ci_high"]]) - min(v + [sm["ci_low"]]) >= CF.ZOOM_FRACTION * (
-        main_hi - main_lo)
-    assert bool(kept[-1].axes[0].child_axes) != wide
+    c["per_replicate"]["improvement_pct"] = pts[:-2] + [-30.0, 45.0]
+    c["per_replicate"]["oracle_improvement_pct"] = [600.0] * n
+    c["oracle_improvement"].update(mean=600.0, ci_low=590.0, ci_high=610.0)
+    c["summary"].update(mean=-0.89, ci_low=-8.5, ci_high=6.7)
+    assert CF.fig_claim(c, tmp_path / "c1.png")
+    assert [a.get_title() for a in kept[-1].axes[0].child_axes] == ["zoomed in"]
+    # an interval as wide as its panel allows reads on the main axis: no inset
+    kept.clear()
+    c["summary"].update(mean=300.0, ci_low=0.0, ci_high=600.0)
+    assert CF.fig_claim(c, tmp_path / "c2.png")
+    assert not kept[-1].axes[0].child_axes

@@ -7,6 +7,7 @@ that keeps the figure, so the tests read the matplotlib artists themselves.
 
 from __future__ import annotations
 
+import itertools
 import math
 from types import SimpleNamespace
 
@@ -297,8 +298,14 @@ def test_every_curve_of_the_thermal_figure_is_in_its_legend(figs, tmp_path):
 def _loop_res(shupe_dph_per_c_per_s: float):
     """A heat-up and cool-down at 1 deg C/min with fast lags (5 s) and a bias of 0.02 deg/h
     per deg C plus ``shupe`` times the coil's dT/dt (deg C/s)."""
-    from sim.thermal import ThermalHold, ThermalModel, ThermalProgram, ThermalRamp, \
-        TempSensor, simulate_thermal
+    from sim.thermal import (
+        TempSensor,
+        ThermalHold,
+        ThermalModel,
+        ThermalProgram,
+        ThermalRamp,
+        simulate_thermal,
+    )
 
     fs = 1.0
     t = np.arange(0.0, 5400.0, 1.0 / fs)
@@ -500,7 +507,7 @@ def test_log_axis_tick_labels_never_collide_and_at_least_two_show(figs, tmp_path
                     continue        # a shared x axis: labels on the bottom panel only
                 assert len(boxes) >= 2, (fig.axes.index(ax), axis.axis_name, lo, hi)
                 boxes.sort(key=lambda b: (b.x0, b.y0))
-                for a, b in zip(boxes, boxes[1:]):
+                for a, b in itertools.pairwise(boxes):
                     assert not a.overlaps(b), (axis.axis_name, a, b)
 
 

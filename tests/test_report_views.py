@@ -650,6 +650,8 @@ def test_the_key_metric_run_by_run_is_drawn_with_its_interval(figs, tmp_path):
                             for k, lab in enumerate(labels)}
                         for j, r in enumerate(runs if p.name != "single" else runs[:1])}
                for i, p in enumerate(prots)}
+    # a reference some runs only have (dynamic_rates' filter oracle: its static run alone)
+    summary["every"]["power_on_3"]["oracle_filter"] = sm(0.5)
     mc = {"replicates": 20, "summary": summary,
           "over_runs": {p.name: {"raw": {"drift_rms_dph": {}}} for p in prots}}
     assert R.fig_runs(SimpleNamespace(plan=plan), mc, tmp_path / "runs.png")
@@ -659,7 +661,8 @@ def test_the_key_metric_run_by_run_is_drawn_with_its_interval(figs, tmp_path):
         assert ax.get_title().startswith(f"{name}: drift_rms_dph")
         assert [t.get_text() for t in ax.get_xticklabels()] == runs
         drawn = {c.get_label(): c for c in ax.containers}
-        assert set(drawn) == {"raw", "oracle", "kalman", "band default (level-6)"}
+        assert set(drawn) == {"raw", "oracle", "kalman", "band default (level-6)"} | (
+            {"oracle_filter"} if name == "every" else set())
         for lab, shown in (("kalman", "kalman"), (DEFAULT, "band default (level-6)")):
             c = drawn[shown]
             want = [summary[name][r][lab]["drift_rms_dph"] for r in runs]

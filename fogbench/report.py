@@ -1601,6 +1601,10 @@ def fig_runs(res: ScenarioResult, mc: dict, path: Path) -> bool:
                                           _color(lab, every, res.plan)),
                         mfc="none" if lab == "raw" else None, label=names.get(lab, lab),
                         gid=f"runs:{prot.name}:{lab}")
+        ys = [y for c in ax.containers for y in c.lines[0].get_ydata() if np.isfinite(y)]
+        if metric.endswith("_dph") and ys and min(ys) > 0 and max(ys) / min(ys) > 20:
+            ax.set_yscale("log")    # (paper004: raw at 10 deg/h, the models at 0.3 and 0.6)
+            _log_ticks(ax)
         ax.set_xticks(x, runs, rotation=30, ha="right", rotation_mode="anchor", fontsize=8)
         unit = unit_of(metric)
         ax.set_ylabel(metric if unit == "as the metric" else f"{metric}, {unit}", fontsize=9)

@@ -169,10 +169,10 @@ def _zoom_inset(ax, values, sm: dict | None, color, gid: str, bounds=()) -> bool
     """An inset over the half of ``ax`` away from column 0's values, showing that column's
     replicate points and its mean with its interval at their own scale (and any of ``bounds``,
     the claimed range's ends, that falls in it), linked to where it sits on the main axis."""
-    v = [y for y in (values or []) if y is not None and math.isfinite(y)]
+    pts = [y for y in (values or []) if y is not None and math.isfinite(y)]
     ci = [y for y in ((sm or {}).get("ci_low"), (sm or {}).get("ci_high"), (sm or {}).get("mean"))
           if y is not None and math.isfinite(y)]
-    v += ci
+    v = pts + ci
     if not v:
         return False
     y0, y1 = ax.get_ylim()
@@ -182,12 +182,10 @@ def _zoom_inset(ax, values, sm: dict | None, color, gid: str, bounds=()) -> bool
     judged = ci if len(ci) == 3 else v
     if len(v) < 2 or not hi > lo or max(judged) - min(judged) >= ZOOM_FRACTION * (y1 - y0):
         return False        # (one value or all equal: nothing an inset could spread out)
-    pad = 0.15 * (hi - lo) if hi > lo else max(1e-12, 0.01 * abs(hi))
-    zlo, zhi = lo - pad, hi + pad
+    zlo, zhi = lo - 0.15 * (hi - lo), hi + 0.15 * (hi - lo)
     upper = 0.5 * (lo + hi) < 0.5 * (y0 + y1)       # the column sits low: the inset goes high
     ins = ax.inset_axes([0.14, 0.55 if upper else 0.06, 0.3, 0.38])  # its labels inside ax
     rng = np.random.default_rng(0)
-    pts = [y for y in (values or []) if y is not None and math.isfinite(y)]
     if pts:
         ins.plot(-0.12 + rng.uniform(-0.05, 0.05, len(pts)), pts, "o", ms=3.5, alpha=0.55,
                  color=color, mec="none", gid=f"{gid}_points")

@@ -142,14 +142,11 @@ def fig_map(map_doc: dict, k: int, path: Path) -> bool:
                   loc="upper left", bbox_to_anchor=(1.01, 1.0))
         ax.grid(True, axis="y", alpha=0.3)
     else:
-        # an axis the claim does not see (every value the same) is drawn as one line of cells,
-        # the scenario's own (or the first), its values named
-        # the scenario's own point has its own replicates: the line drawn is another value's,
-        # the map's numbers, with the scenario's run's numbers noted in its cell
+        # an axis the claim does not see (every value the same) is drawn as one line of
+        # cells: at a value other than the scenario's own (whose cell holds the scenario's run,
+        # its own replicates, not the map's numbers), the scenario's run noted in its row
         same = no_effect_axes(map_doc, k)
         base_v, base_p = next(((v, p) for v, p in zip(vals, pts) if p["base"]), (None, None))
-        # along a no-effect axis, a value other than the scenario's own (whose cell holds the
-        # scenario's run, not the map's numbers)
         pick = {a: next((p["index"][a] for p in pts if not p["base"] and (
             base_p is None or p["index"][a] != base_p["index"][a])), 0) for a in same}
         keep = [v_p for v_p in zip(vals, pts)

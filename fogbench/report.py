@@ -1436,6 +1436,31 @@ def _collapse_sweeps(labels: list[str], data: list, plan):
     return out_l, out_d, src, ranges
 
 
+def _metric_axis(ax, prot, metric: str, title: str) -> None:
+    """A protocol panel's y label (the metric with its unit) and title (flagged in-sample)."""
+    unit = unit_of(metric)
+    ax.set_ylabel(metric if unit == "as the metric" else f"{metric}, {unit}", fontsize=9)
+    flag = " (in-sample)" if prot.in_sample else ""
+    ax.set_title(f"{prot.name}{flag}: {title}", fontsize=9)
+
+
+def _share_y(pairs) -> None:
+    """Panels ``(ax, metric)`` of one metric and y scale share one y range (the union of
+    theirs), so that protocols compare at a glance (switch_on_repeatability's calibrate_once
+    and recalibrate had different scales)."""
+    groups: dict = {}
+    for ax, metric in pairs:
+        groups.setdefault((metric, ax.get_yscale()), []).append(ax)
+    for used in groups.values():
+        if len(used) < 2:
+            continue
+        lo = min(a.get_ylim()[0] for a in used)
+        hi = max(a.get_ylim()[1] for a in used)
+        for a in used:
+            a.set_ylim(lo, hi)
+            _log_ticks(a)
+
+
 def _fig_distributions(res: ScenarioResult, mc: dict, path: Path, panel) -> bool:
     """One panel per protocol whose key metric ``panel(prot, metric)`` has values, at most
     DIST_PANELS_A_ROW a row: one column per method, the values as jittered points over a box of
@@ -1483,29 +1508,14 @@ def _fig_distributions(res: ScenarioResult, mc: dict, path: Path, panel) -> bool
                 extra(ax, i, lab)
         ax.set_xticks(range(len(shown)), shown, rotation=35, ha="right", fontsize=8,
                       rotation_mode="anchor")
-        unit = unit_of(metric)
-        ax.set_ylabel(metric if unit == "as the metric" else f"{metric}, {unit}", fontsize=9)
-        flag = " (in-sample)" if prot.in_sample else ""
-        ax.set_title(f"{prot.name}{flag}: {title}", fontsize=9)
+        _metric_axis(ax, prot, metric, title)
         if metric.endswith("_dph") and all(d.size and np.all(d > 0) for d in data):
             ax.set_yscale("log")
             _log_ticks(ax)      # paper004's axis had two labels, 10^0 and 10^1
         ax.grid(alpha=0.3)
         if any(ranges):
             ax.legend(fontsize=7, loc="best")
-    # panels of one metric share its y range, so that protocols compare at a glance
-    # (switch_on_repeatability's calibrate_once and recalibrate had different scales)
-    by_metric: dict = {}
-    for a, (_, metric, *_) in zip(axes.flat, panels):
-        by_metric.setdefault((metric, a.get_yscale()), []).append(a)
-    for used in by_metric.values():
-        if len(used) < 2:
-            continue
-        lo = min(a.get_ylim()[0] for a in used)
-        hi = max(a.get_ylim()[1] for a in used)
-        for a in used:
-            a.set_ylim(lo, hi)
-            _log_ticks(a)
+    _share_y([(a, x[1]) for a, x in zip(axes.flat, panels)])
     fig.tight_layout()
     _save(fig, path)
     return True
@@ -1574,7 +1584,7 @@ def fig_runs(res: ScenarioResult, mc: dict, path: Path) -> bool:
     if not panels:
         return False
     fig, axes = plt.subplots(1, len(panels), figsize=(0.9 + 4.6 * len(panels), 4.6),
-                             squeeze=False, sharey=len({m for _, m, _ in panels}) == 1)
+                             squeeze=False)
     for ax, (prot, metric, runs) in zip(axes[0], panels):
         by_run = summary[prot.name]
         every = list(dict.fromkeys(lab for r in runs for lab in by_run[r]))
@@ -1601,17 +1611,22 @@ def fig_runs(res: ScenarioResult, mc: dict, path: Path) -> bool:
                                           _color(lab, every, res.plan)),
                         mfc="none" if lab == "raw" else None, label=names.get(lab, lab),
                         gid=f"runs:{prot.name}:{lab}")
-        ys = [y for c in ax.containers for y in c.lines[0].get_ydata() if np.isfinite(y)]
-        if metric.endswith("_dph") and ys and min(ys) > 0 and max(ys) / min(ys) > 20:
-            ax.set_yscale("log")    # (paper004: raw at 10 deg/h, the models at 0.3 and 0.6)
-            _log_ticks(ax)
         ax.set_xticks(x, runs, rotation=30, ha="right", rotation_mode="anchor", fontsize=8)
-        unit = unit_of(metric)
-        ax.set_ylabel(metric if unit == "as the metric" else f"{metric}, {unit}", fontsize=9)
-        flag = " (in-sample)" if prot.in_sample else ""
-        ax.set_title(f"{prot.name}{flag}: {metric} on each run\n(mean and 95 % interval over "
-                     f"{mc['replicates']} replicates)", fontsize=9)
+        _metric_axis(ax, prot, metric, f"{metric} on each run\n(mean and 95 % interval over "
+                                       f"{mc['replicates']} replicates)")
         ax.grid(alpha=0.3)
+    # a positive deg/h metric spanning over 20x (paper004: raw at 10 deg/h, the models at 0.3
+    # and 0.6) on a log scale, decided over all of its panels so that they share it
+    pairs = [(ax, metric) for ax, (_, metric, _) in zip(axes[0], panels)]
+    for metric in {m for _, m in pairs}:
+        mine = [ax for ax, m in pairs if m == metric]
+        ys = [y for ax in mine for c in ax.containers for y in c.lines[0].get_ydata()
+              if np.isfinite(y)]
+        if metric.endswith("_dph") and ys and min(ys) > 0 and max(ys) / min(ys) > 20:
+            for ax in mine:
+                ax.set_yscale("log")
+                _log_ticks(ax)
+    _share_y(pairs)
     axes[0, -1].legend(**LEGEND)
     fig.tight_layout()
     _save(fig, path)

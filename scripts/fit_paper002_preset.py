@@ -23,7 +23,7 @@ Usage: ``python scripts/fit_paper002_preset.py [--segments-only] [--bi-dph B] [-
 [--whole-run]``. Prints the fitted keys in the units of ``sim/presets.toml`` and, per segment, the
 paper's three runs, the model and the residual.
 
-``--whole-run`` prints the other reading of Table 1 (issue 20): the preset's temperature
+``--whole-run`` prints the other reading of Table 1: the preset's temperature
 coefficients c1, c2 (the climb in T that dominates its whole run) scaled by the one factor that
 makes the whole run's prediction the paper's mean whole-run value, the lags and the Shupe terms
 kept; with the segment values it then predicts. ``scenarios/paper002_acobp.toml``'s claim map runs
@@ -42,9 +42,9 @@ from scipy.optimize import least_squares
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from fogcomp import units as U  # noqa: E402
-from sim.fog import FogParams, bias_instability_components, simulate_fog  # noqa: E402
-from sim.thermal import (ThermalHold, ThermalModel, ThermalProgram, ThermalRamp,  # noqa: E402
+from fogcomp import units as U
+from sim.fog import FogParams, bias_instability_components, simulate_fog
+from sim.thermal import (ThermalHold, ThermalModel, ThermalProgram, ThermalRamp,
                          simulate_thermal)
 
 FS = 1.0          # Hz, the paper's sampling

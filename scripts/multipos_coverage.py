@@ -1,5 +1,5 @@
 """Coverage of the multi-position fit's 68 % intervals with the TRUE noise model
-(fogbench.device_multipos.fit_multipos on fogbench.device_multipos.lab_program), the numbers the
+(fogbench.device.multipos.fit_multipos on fogbench.device.multipos.lab_program), the numbers the
 README quotes:
 
     python scripts/multipos_coverage.py preset tactical 100     # the preset's noise, 100 seeds
@@ -15,9 +15,10 @@ import sys
 
 import numpy as np
 
-from fogbench.bench_noise import _noise_only
-from fogbench.device_multipos import TERMS, MultiposLog, fit_multipos, lab_program
-from fogbench.scenario import _fog, _Table
+from fogbench.bench.noise import _noise_only
+from fogbench.device.multipos import TERMS, MultiposLog, fit_multipos, lab_program
+from fogbench.scenario.device_file import _fog
+from fogbench.scenario.tables import _Table
 from fogcomp.units import DPH
 from sim.fog import FogParams, simulate_fog
 

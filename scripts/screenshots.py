@@ -178,7 +178,7 @@ def run_replicates(run_dir: Path):
     as :func:`fogbench.recording.write_recording` takes them, or None without Monte Carlo."""
     import json
 
-    from fogbench.report import recording_replicates
+    from fogbench.report.montecarlo import recording_replicates
 
     mc = json.loads((Path(run_dir) / "metrics.json").read_text()).get("montecarlo")
     return recording_replicates(mc) if mc else None
@@ -242,7 +242,7 @@ def main(argv=None) -> int:
               file=sys.stderr)
         return 2
     from fogbench.recording import write_recording
-    from fogbench.runner import run_scenario
+    from fogbench.run.runner import run_scenario
 
     shots: dict[str, list[tuple[str, str]]] = {}
     for s in args.shot:

@@ -82,3 +82,29 @@ score = ["b"]
 [[methods]]
 name = "wavelet_soft"
 """
+
+
+def run_tasks(executor, fn, items, *, progress=None):
+    """Submit ``fn(item)`` for every item of ``items`` on a ``concurrent.futures`` executor;
+    yield ``(index, future)`` as each completes (the order depends on the engine), advancing
+    ``progress`` (a :class:`fogbench.console.Progress`) once per task with failures counted; on
+    leaving early every task not yet started is cancelled. The determinism tests' driver."""
+    import concurrent.futures as cf
+
+    futures = {executor.submit(fn, item): i for i, item in enumerate(items)}
+    try:
+        for fut in cf.as_completed(futures):
+            if progress is not None:
+                progress.advance(failed=fut.cancelled() or fut.exception() is not None)
+            yield futures[fut], fut
+    finally:
+        for fut in futures:
+            fut.cancel()
+
+
+def read_run(path):
+    """The arrays of a ``<run>.npz`` written by ``fogbench simulate`` (no pickle)."""
+    import numpy as np
+
+    with np.load(path, allow_pickle=False) as z:
+        return {k: z[k] for k in z.files}

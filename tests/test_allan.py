@@ -221,7 +221,7 @@ def _identified(model) -> set:
 # Derandomized: "only N is identified" holds at the selection's level, not always. A term
 # enters when it lowers J by more than its 1 % critical value, so a record of pure white noise
 # shows a spurious flicker term now and then (seed 1_623_663_498, arw 0.0625 gave B = 0.0084,
-# 13 % of N: CI drew it once). The rate of such false terms is what fogbench.bench_noise
+# 13 % of N: CI drew it once). The rate of such false terms is what fogbench.bench.noise
 # measures over many records; here the same 8 records every run.
 @settings(max_examples=8, deadline=None, derandomize=True)
 @given(seed=st.integers(0, 2**32 - 1), arw=st.floats(1e-6, 1e-1))

@@ -27,7 +27,8 @@ from matplotlib.colors import to_hex
 from scipy import stats as sps
 
 from helpers import run_cli
-from fogbench import claim_figures as CF
+from fogbench.outputs import files
+from fogbench.report import claims as CF
 
 SCENARIO = """
 [scenario]
@@ -129,7 +130,7 @@ def claims(run_dir):
 def kept(monkeypatch):
     """Figures passed to ``_save``, kept open instead of written."""
     figs = []
-    monkeypatch.setattr(CF, "_save", lambda fig, path: figs.append(fig))
+    monkeypatch.setattr(files, "save_figure", lambda fig, path: figs.append(fig))
     yield figs
     import matplotlib.pyplot as plt
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy import stats as sst
 
-from fogbench.compare import collect
+from fogbench.report.compare import collect
 
 from helpers import run_cli
 
@@ -80,7 +80,7 @@ def test_the_figure_leaves_ideal_twins_to_the_table_and_draws_a_sweep_as_one_row
     """compare.png was 3182 px tall: every ideal-lab twin again and paper000's 8 wavelet_band
     settings a row each. The table keeps every row; the figure draws the lab protocol only and
     a sweep as its paper setting's row with its settings' range (min, max of their means)."""
-    from fogbench.compare import _figure_rows
+    from fogbench.report.compare import _figure_rows
 
     d = tmp_path / "s"
     d.mkdir()
@@ -109,8 +109,8 @@ def test_each_protocol_s_first_row_names_its_metric_in_the_figure(tmp_path, monk
     """compare.png put scenarios ranked on different headline metrics on one axis labelled
     "headline metric" alone (lab_references' 64.7 % is of the RMSE, its report's 97.2 % of the
     dwell means): the first row of each protocol names its metric."""
-    from fogbench import compare as C
-    from fogbench import io as IO
+    from fogbench.report import compare as C
+    from fogbench.outputs import files as IO
 
     kept = []
     monkeypatch.setattr(IO, "save_figure", lambda fig, path: kept.append(fig))

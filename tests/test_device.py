@@ -13,10 +13,11 @@ import numpy as np
 import pytest
 from scipy.stats import binom
 
-from fogbench.bench_device import CASES, round_trip, twin_in_band
-from fogbench.device import (MARKER, StaticLog, check_device, earth_projection, fit_device,
-                             preset_text, twin_curves)
-from fogbench.scenario import ScenarioError, load_device_file, load_scenario
+from fogbench.bench.device import CASES, round_trip, twin_in_band
+from fogbench.device import MARKER, check_device, fit_device, preset_text, twin_curves
+from fogbench.device.fit import StaticLog, earth_projection
+from fogbench.scenario import ScenarioError, load_scenario
+from fogbench.scenario.device_file import load_device_file
 from fogcomp.allan import allan_analysis
 from fogcomp.units import DPH
 from sim.fog import FogParams, simulate_fog
@@ -29,7 +30,7 @@ ROUND_TRIP_FAST = ("tactical", "mems_adis16405")     # the rest: slow, and fogbe
 
 
 def _load(path):
-    from fogbench.scenario import RUNNER_SECTIONS
+    from fogbench.scenario.load import RUNNER_SECTIONS
 
     return load_scenario(path, extra_sections=RUNNER_SECTIONS)
 
@@ -361,7 +362,7 @@ set = { "fog.device" = "dev.toml" }
 unset = ["fog.preset"]
 ''')
     plan = load_plan(_load(s))
-    from fogbench.scenario import RUNNER_SECTIONS
+    from fogbench.scenario.load import RUNNER_SECTIONS
 
     point = next(p for p in plan.map.points if p.labels == ("file",))
     at_point = load_scenario(s, extra_sections=RUNNER_SECTIONS, overrides=point.overrides)
@@ -414,9 +415,10 @@ def _thermal_program():
 def _thermal_run(name: str, fs: float, seed: int):
     """A static log (2 h) and a thermal run (20 -> 40 -> 0 -> 20 deg C at 0.5 deg C/min, 6.3 h)
     of a preset: its noise and temperature terms, its thermal build and sensor."""
-    from fogbench.bench_noise import _noise_only
-    from fogbench.device_thermal import ThermalLog
-    from fogbench.scenario import _fog, _Table
+    from fogbench.bench.noise import _noise_only
+    from fogbench.device.thermal import ThermalLog
+    from fogbench.scenario.device_file import _fog
+    from fogbench.scenario.tables import _Table
     from sim.thermal import simulate_thermal
 
     params, _, _, _, model, _ = _fog(_Table({"preset": name}, "[fog]", "test"), fs)
@@ -438,7 +440,7 @@ def test_thermal_fit_covers_the_presets_temperature_terms(name, fs):
     coefficient's 68 % interval covers the preset's value in at least 60 % of 10 seeds, and
     where the fit places the sensor (the coil, or the housing with a lag) it is where the
     preset has it in at least 60 % of those seeds."""
-    from fogbench.device_thermal import KEYS
+    from fogbench.device.thermal import KEYS
 
     truth = {k: load_presets()[name].get(k, 0.0) for k, _ in KEYS}
     hits = {k: 0 for k in truth}
@@ -494,8 +496,8 @@ def test_block_covariance_against_the_sample_covariance_averaged_by_brute_force(
     samples' autocovariance and A the averaging matrix (a slow obvious twin)."""
     from scipy.linalg import toeplitz
 
-    from fogbench.device_thermal import block_covariance
-    from fogbench.runner import noise_autocovariance
+    from fogbench.device.thermal import block_covariance
+    from fogbench.run.runner import noise_autocovariance
 
     p = FogParams(arw=0.03 * math.radians(1) / 60, bias_instability=0.1 * DPH,
                   bi_band=(1e-6, 0.1), gm_drift=0.2 * DPH, gm_time_constant=50.0,
@@ -508,7 +510,7 @@ def test_block_covariance_against_the_sample_covariance_averaged_by_brute_force(
 
 
 def test_a_single_ramp_is_refused_as_inseparable():
-    from fogbench.device_thermal import ThermalLog, fit_thermal
+    from fogbench.device.thermal import ThermalLog, fit_thermal
 
     fs, n = 1.0, 3600
     T = 20.0 + 20.0 * np.arange(n) / n
@@ -528,7 +530,7 @@ def test_estimability_of_the_g_terms_follows_from_the_positions():
     (fx^2 + fy^2 + fz^2 = 1 = the constant; the cross terms are zero); the tumble's 45 deg
     positions add the cross terms but never separate the squares from the constant; a
     centrifuge (other than 1 g) separates them; the scale factor needs a rate."""
-    from fogbench.device_multipos import TERMS, design, estimable, lab_program
+    from fogbench.device.multipos import TERMS, design, estimable, lab_program
 
     names = [n for n, _ in TERMS]
     six = _positions(*np.eye(3), *-np.eye(3))
@@ -569,7 +571,7 @@ def test_multipos_fit_against_ordinary_least_squares_on_white_noise():
     fit is ordinary least squares, so its estimate and standard errors equal numpy's lstsq with
     sigma^2 (X'X)^-1 (a slow obvious twin written out here), and the terms a six-position log
     cannot determine are None."""
-    from fogbench.device_multipos import MultiposLog, fit_multipos
+    from fogbench.device.multipos import MultiposLog, fit_multipos
 
     rng = np.random.default_rng(4)
     six = _positions(*np.eye(3), *-np.eye(3), hold=300)
@@ -596,8 +598,9 @@ def test_multipos_fit_from_the_command_line_writes_the_g_keys(tmp_path):
     """A simulated lab program of the tactical preset through the CLI: the g terms, scale
     factor and non-linearity written with intervals, the file runs as a scenario's device;
     a six-position log writes only the linear g terms and says why."""
-    from fogbench.device_multipos import lab_program
-    from fogbench.scenario import _fog, _Table
+    from fogbench.device.multipos import lab_program
+    from fogbench.scenario.device_file import _fog
+    from fogbench.scenario.tables import _Table
 
     fs = 10.0
     preset, *_ = _fog(_Table({"preset": "tactical"}, "[fog]", "test"), fs)

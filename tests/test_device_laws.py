@@ -8,7 +8,8 @@ import allantools
 import numpy as np
 import pytest
 
-from fogbench.scenario import _fog, _Table
+from fogbench.scenario.device_file import _fog
+from fogbench.scenario.tables import _Table
 from fogcomp import units as U
 from sim.fog import simulate_fog
 from sim.rig import load_presets

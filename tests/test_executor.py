@@ -1,4 +1,4 @@
-"""fogbench.executor: the determinism law over engines, job scripts, bad engines, seeds."""
+"""fogbench.run.executor: the determinism law over engines, job scripts, bad engines, seeds."""
 
 import hashlib
 import io
@@ -8,10 +8,11 @@ import time
 import numpy as np
 import pytest
 
-from fogbench.executor import (EngineError, SchedulerUnreachableError, SerialExecutor,
-                               engine_label, make_executor, render_job_script, replicate_seed,
-                               replicate_seed_sequence, run_tasks)
-from fogbench.progress import Progress
+from fogbench.run.dask import EngineError, SchedulerUnreachableError, render_job_script
+from fogbench.run.engines import SerialExecutor, engine_label, make_executor
+from helpers import run_tasks
+from fogbench.run.seeds import replicate_seed, replicate_seed_sequence
+from fogbench.console import Progress
 
 SCENARIO_SEED = 20240611
 N_REPLICATES = 8

@@ -35,7 +35,7 @@ import pytest
 from helpers import SMALL_SCENARIO, run_cli
 
 ROOT = Path(__file__).resolve().parents[1]
-CLI = [sys.executable, "-m", "fogbench.cli"]
+CLI = [sys.executable, "-m", "fogbench"]
 
 
 def snapshot(root: Path) -> dict[str, str]:
@@ -325,7 +325,7 @@ def test_a_model_of_another_method_under_the_manifest_is_refused(tmp_path):
         shutil.copyfile(tmp_path / "w" / f"ws.gyro_y{suffix}", m / f"kal.gyro_y{suffix}")
     assert_compensate_refused(tmp_path, m / "kal", log, "kal.gyro_y.json", "does not match")
     # even with the manifest's pins updated, the model's own method is compared
-    from fogbench.reallog.modelfile import _file_sha256
+    from fogbench.logs.modelfile import _file_sha256
 
     def repin(doc):
         doc["axes"]["gyro_y"]["json_sha256"] = _file_sha256(m / "kal.gyro_y.json")
@@ -563,7 +563,8 @@ def test_the_pool_ends_with_its_parent_after_kill_9(tmp_path):
 @pytest.fixture
 def killed(tiny, tmp_path):
     """A run of 4 replicates killed after 0, 1 and 2 were stored (the process gone)."""
-    from fogbench.montecarlo import ScenarioMC, replicate_task, scenario_digest
+    from fogbench.run.montecarlo import ScenarioMC, replicate_task
+    from fogbench.run.workdir import scenario_digest
 
     tiny.write_text(SMALL_SCENARIO + "\n[montecarlo]\nreplicates = 4\n")
     mc = ScenarioMC(tiny, tmp_path / "run")
@@ -605,7 +606,7 @@ def test_a_relabelled_replicate_is_refused_by_resume(tiny, tmp_path, killed):
 def test_a_replicate_of_another_scenario_is_refused(tiny, tmp_path, killed):
     doc = json.loads((killed / "r00001.json").read_text())
     doc["scenario_sha256"] = "0" * 64
-    from fogbench.montecarlo import _doc_sha256
+    from fogbench.run.workdir import _doc_sha256
 
     doc["sha256"] = _doc_sha256(doc)
     (killed / "r00001.json").write_text(json.dumps(doc))
@@ -639,10 +640,11 @@ def test_a_swallowed_sigterm_still_ends_with_143_and_puts_nothing_in_place(tiny,
     """SIGTERM while a figure is drawn, its exception swallowed on the way (as in a matplotlib
     callback, where Python only prints it): the command still ends with the one line and 143,
     and no run directory is put in place."""
-    from fogbench import report
-    from fogbench.outdir import Terminated
+    from fogbench.report import rundir as report_rundir
+    from fogbench.report import spectra as report_spectra
+    from fogbench.outputs.folders import Terminated
 
-    real = report.fig_psd
+    real = report_spectra.fig_psd
 
     def fig_psd(*a):
         try:
@@ -652,7 +654,7 @@ def test_a_swallowed_sigterm_still_ends_with_143_and_puts_nothing_in_place(tiny,
             pass  # swallowed
         return real(*a)
 
-    monkeypatch.setattr(report, "fig_psd", fig_psd)
+    monkeypatch.setattr(report_rundir, "fig_psd", fig_psd)
     code, out, err = run_cli("run", tiny, "--out", tmp_path / "run", "--quiet", "--no-recording")
     assert code == 143, err
     assert err.strip().splitlines()[-1].startswith("fogbench: terminated (SIGTERM)")
@@ -665,11 +667,11 @@ def test_a_half_built_object_failing_in_its_del_after_a_signal_is_not_printed(mo
     2026-12-05: pyparsing's ``Forward`` "has no attribute 'expr'" printed between the two lines of
     a SIGTERM's ending); after a signal Python's "Exception ignored" report is the signal's
     consequence and stays silent, before one it is printed as Python prints it."""
-    from fogbench import signals
+    from fogbench.outputs import interrupts as signals
 
     class HalfBuilt:
         def __del__(self):
-            self.expr is None  # noqa: B018 -- never set: AttributeError
+            self.expr is None
 
     printed = []
     monkeypatch.setattr(signals, "_default_unraisable", printed.append)

@@ -1,4 +1,4 @@
-"""Ferraris intrinsics in Kalibr's and OpenVINS' conventions (fogbench.kalibr, issue 25).
+"""Ferraris intrinsics in Kalibr's and OpenVINS' conventions (fogbench.formats.kalibr, issue 25).
 
 Each test builds a calibration with known parameters, converts it, loads the written YAML with
 PyYAML and applies the tool's own measurement model to it, written out here from the tools'
@@ -30,7 +30,7 @@ import numpy as np
 import pytest
 import yaml
 
-from fogbench.kalibr import (INTRINSICS_TEXTS, NoiseValue, intrinsics_from_ferraris, is_own,
+from fogbench.formats.kalibr import (INTRINSICS_TEXTS, NoiseValue, intrinsics_from_ferraris, is_own,
                              kalibr_intrinsics_text, openvins_intrinsics_text)
 from fogcomp.calibration import TriadCalibration, ferraris_calibration
 
@@ -394,7 +394,7 @@ def test_calibrate_ferraris_tool_files_are_refused_for_raw_counts_and_other_meth
 def test_the_noise_files_write_numbers_pyyaml_reads_as_numbers():
     """PyYAML (Kalibr reads its imu.yaml with it) takes '1e-05' for a string: a noise
     density of one significant digit must still load as a float."""
-    from fogbench.kalibr import kalibr_text, openvins_text
+    from fogbench.formats.kalibr import kalibr_text, openvins_text
 
     values = {("gyroscope", "N"): NoiseValue(1e-5, "identified", "gyro_z_rps", {}),
               ("gyroscope", "K"): NoiseValue(2e-7, "identified", "gyro_z_rps", {}),

@@ -227,7 +227,7 @@ def test_the_runner_hands_the_fit_the_labs_reference_and_scores_on_the_truth(tmp
     Omega cos L cos 91 deg = -Omega cos L sin 1 deg. A bias fitted on its reference is the
     ideal lab's plus Omega cos L sin 1 deg (0.186 deg/h at 45 deg), and the scored output is off
     the truth by that much more: by hand, not from sim/lab.py."""
-    from fogbench.runner import run_scenario
+    from fogbench.run.runner import run_scenario
     from fogcomp.units import DPH
 
     path = tmp_path / "lab.toml"
@@ -248,7 +248,8 @@ def test_the_runner_hands_the_fit_the_labs_reference_and_scores_on_the_truth(tmp
 
 
 def test_lab_keys_without_a_lab_protocol_are_refused(tmp_path):
-    from fogbench.scenario import ScenarioError, load_plan, load_scenario, RUNNER_SECTIONS
+    from fogbench.scenario import ScenarioError, load_plan, load_scenario
+    from fogbench.scenario.load import RUNNER_SECTIONS
 
     path = tmp_path / "lab.toml"
     path.write_text(LAB_SCENARIO.replace('reference = "lab"\n', 'reference = "truth"\n'))
@@ -288,7 +289,8 @@ def test_a_table_off_level_and_a_turntable_axis_off_normal_as_the_geometry_says(
 
 
 def test_table_imperfections_are_scenario_keys(tmp_path):
-    from fogbench.scenario import RUNNER_SECTIONS, ScenarioError, load_scenario
+    from fogbench.scenario.load import RUNNER_SECTIONS
+    from fogbench.scenario import ScenarioError, load_scenario
 
     path = tmp_path / "lab.toml"
     path.write_text(LAB_SCENARIO.replace("heading_deg = 90.0", "heading_deg = 90.0\n"
@@ -312,7 +314,7 @@ def test_the_bundled_lab_scenario_books_the_heading_error_as_bias_as_computed_by
     what the servo's sag under the off-axis FOG turns of the Earth rate (~6e-5 rad x 15 deg/h,
     1e-3 deg/h): within 1 %. Its first run alone (the second is the same motion at another
     seed; replicate 0 draws each run from its own seed, so the first is as the suite has it)."""
-    from fogbench.runner import run_scenario
+    from fogbench.run.runner import run_scenario
     from fogcomp.units import DPH
 
     text = (Path(__file__).resolve().parents[1] / "scenarios" / "lab_references.toml"
@@ -350,7 +352,8 @@ def test_a_protocol_that_names_no_reference_is_fitted_on_the_labs_and_the_flag_o
     import json
 
     from fogbench.cli import main
-    from fogbench.scenario import RUNNER_SECTIONS, load_plan, load_scenario
+    from fogbench.scenario.load import RUNNER_SECTIONS
+    from fogbench.scenario import load_plan, load_scenario
     from fogcomp.units import DPH
 
     path = tmp_path / "lab.toml"
@@ -396,7 +399,7 @@ def test_the_saved_scenario_of_a_reference_lab_run_reruns_as_it_ran(tmp_path, mo
     file as reference = "lab" in each protocol that did not name its own, not as a comment
     only). A protocol that names "truth" stays on the truth."""
     from fogbench.cli import main
-    from fogbench.scenario import REFERENCE_ENV
+    from fogbench.scenario.environment import REFERENCE_ENV
 
     monkeypatch.delenv(REFERENCE_ENV, raising=False)
     path = tmp_path / "lab.toml"
@@ -425,7 +428,7 @@ def test_reference_truth_on_the_command_line_wins_over_the_environment(tmp_path,
     `--reference truth` given: the flag wins, every protocol that does not name its reference
     is fitted on the truth, with no ideal twin; without the flag the environment's applies."""
     from fogbench.cli import main
-    from fogbench.scenario import REFERENCE_ENV
+    from fogbench.scenario.environment import REFERENCE_ENV
 
     path = tmp_path / "lab.toml"
     path.write_text(LAB_SCENARIO.replace('reference = "lab"\n', "").replace(
@@ -448,7 +451,9 @@ def test_reference_lab_is_written_into_a_file_whose_protocols_are_inline_tables(
     written out whole, and read back it holds the protocols' references as they ran."""
     import tomllib
 
-    from fogbench.scenario import REFERENCE_ENV, RUNNER_SECTIONS, load_plan, load_scenario
+    from fogbench.scenario.environment import REFERENCE_ENV
+    from fogbench.scenario.load import RUNNER_SECTIONS
+    from fogbench.scenario import load_plan, load_scenario
 
     head, _ = LAB_SCENARIO.split("[[protocols]]", 1)
     path = tmp_path / "lab.toml"
@@ -499,7 +504,8 @@ def test_a_rate_error_beyond_the_servo_shows_as_the_scale_factor_a_lab_fit_finds
 
 
 def test_the_rate_error_is_a_table_key_in_ppm_refused_beyond_its_limit(tmp_path):
-    from fogbench.scenario import RUNNER_SECTIONS, ScenarioError, load_scenario
+    from fogbench.scenario.load import RUNNER_SECTIONS
+    from fogbench.scenario import ScenarioError, load_scenario
 
     path = tmp_path / "lab.toml"
     path.write_text(LAB_SCENARIO.replace("heading_deg = 90.0", "heading_deg = 90.0\n"
@@ -609,7 +615,8 @@ def test_a_fit_on_the_triad_moves_the_g_sensitivity_as_the_bias_algebra_says(pro
 
 def test_the_triads_keys_load_with_their_units_and_are_refused_where_they_change_nothing(
         tmp_path):
-    from fogbench.scenario import RUNNER_SECTIONS, ScenarioError, load_plan, load_scenario
+    from fogbench.scenario.load import RUNNER_SECTIONS
+    from fogbench.scenario import ScenarioError, load_plan, load_scenario
     from fogcomp.units import G0
 
     def plan(lab_keys):
@@ -639,7 +646,7 @@ def test_an_ideal_twin_draws_its_own_figures_only_where_its_fit_differs_from_the
     lab's reference is the truth to the servo's hold (~1e-9 rad/s, 2e-4 deg/h), the two fits are
     the same to far under a pixel, and the twin's figures are left out, the report saying why."""
     from fogbench.report import write_run_dir
-    from fogbench.runner import run_scenario
+    from fogbench.run.runner import run_scenario
 
     for heading_error, drawn in ((1.0, True), (0.0, False)):
         path = tmp_path / f"lab{heading_error:g}.toml"

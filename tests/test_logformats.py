@@ -14,7 +14,7 @@ import warnings
 import numpy as np
 import pytest
 
-from fogbench.logformats.table import read_log
+from fogbench.formats.table import read_log
 
 from test_reallog import run
 
@@ -607,7 +607,7 @@ def test_a_euroc_header_with_an_unknown_field_is_the_header_and_names_the_field(
                                                                                 capsys):
     """TUM-VI / EuRoC-like file with a column fogbench does not know: the '#timestamp' line
     is still the header, the known columns read back, the unknown one is named with its line."""
-    from fogbench.logformats.euroc import commented_header
+    from fogbench.formats.euroc import commented_header
 
     stamps, w, a = _record(n=500)
     p = tmp_path / "data.csv"

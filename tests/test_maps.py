@@ -16,12 +16,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fogbench.executor import SerialExecutor
-from fogbench.maps import MapRun
-from fogbench.montecarlo import ScenarioMC
-from fogbench.runner import noise_autocovariance, oracle_filter, run_scenario, run_seed
-from fogbench.scenario import (_FOG_KEYS, RUNNER_SECTIONS, ScenarioError, load_plan,
-                               load_scenario)
+from fogbench.run.engines import SerialExecutor
+from fogbench.run.maps import MapRun
+from fogbench.run.montecarlo import ScenarioMC
+from fogbench.run.runner import noise_autocovariance, oracle_filter, run_scenario, run_seed
+from fogbench.scenario.device_file import _FOG_KEYS
+from fogbench.scenario.load import RUNNER_SECTIONS
+from fogbench.scenario import ScenarioError, load_plan, load_scenario
 from sim.rig import simulate_run
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -298,7 +299,7 @@ def test_the_filter_oracle_is_the_gls_estimate_of_the_constant():
     """For a constant true rate: the dense generalised least squares (the noise covariance
     matrix built and solved directly, the slow twin of the Toeplitz solve), and for white noise
     alone the plain mean."""
-    from fogbench.runner import Piece
+    from fogbench.run.runner import Piece
     from fogcomp.units import DEG_RT_H, DPH
     from sim.fog import FogParams
 
@@ -373,9 +374,9 @@ def test_a_map_figure_s_long_claim_and_label_stay_inside_it_apart(tmp_path, monk
     one-line y label: the title and the label are wrapped and laid out inside, not overlapping."""
     import matplotlib.pyplot as plt
 
-    from fogbench import map_report as MR
+    from fogbench.report import maps as MR
 
-    from fogbench import io as IO
+    from fogbench.outputs import files as IO
 
     kept = []
     monkeypatch.setattr(IO, "save_figure", lambda fig, path: kept.append(fig))
@@ -423,8 +424,8 @@ def test_an_axis_the_claim_does_not_see_is_drawn_as_one_line_of_cells(tmp_path, 
     drawn whole."""
     import matplotlib.pyplot as plt
 
-    from fogbench import io as IO
-    from fogbench import map_report as MR
+    from fogbench.outputs import files as IO
+    from fogbench.report import maps as MR
 
     kept = []
     monkeypatch.setattr(IO, "save_figure", lambda fig, path: kept.append(fig))

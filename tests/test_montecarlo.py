@@ -11,8 +11,9 @@ import numpy as np
 import pytest
 
 from helpers import run_cli
-from fogbench.executor import SerialExecutor, make_executor
-from fogbench.montecarlo import MonteCarloError, ScenarioMC, replicate_task
+from fogbench.run.engines import SerialExecutor, make_executor
+from fogbench.run.workdir import MonteCarloError
+from fogbench.run.montecarlo import ScenarioMC, replicate_task
 
 SCENARIO = """
 [scenario]
@@ -79,7 +80,7 @@ def scn(tmp_path):
 
 
 def _digest(p):
-    from fogbench.montecarlo import scenario_digest
+    from fogbench.run.workdir import scenario_digest
 
     return scenario_digest(p.read_bytes().decode("utf-8", "replace"))
 
@@ -257,7 +258,7 @@ def test_p_better_is_the_mann_whitney_probability():
     included, for both directions of 'better'."""
     from scipy.stats import mannwhitneyu
 
-    from fogbench.montecarlo import p_better
+    from fogbench.run.aggregate import p_better
 
     rng = np.random.default_rng(3)
     for _ in range(20):
@@ -284,7 +285,7 @@ def test_over_seeds_pools_starts_and_compares_within_replicates():
     A are worse than replicate 0's B (a between-replicate shift): the probability counts
     pairs inside a replicate only, so it is 1 in both; the pooled quantiles are those of the
     per-start means over the two runs (v + 0.5)."""
-    from fogbench.montecarlo import _over_seeds
+    from fogbench.run.aggregate import _over_seeds
 
     docs = [_seed_doc(0, [1.0, 2.0, 3.0], [4.0, 5.0, 6.0]),
             _seed_doc(1, [11.0, 12.0, 13.0], [14.0, 15.0, 16.0])]
@@ -303,7 +304,7 @@ def test_over_seeds_pools_starts_and_compares_within_replicates():
 def test_over_seeds_higher_is_better_for_percent_metrics_and_counts_failed_starts():
     """On a `_pct` metric a larger value is better: A's starts (all larger) beat B's with
     probability 1. A start without a value (a failed fit) is left out and counted."""
-    from fogbench.montecarlo import _over_seeds
+    from fogbench.run.aggregate import _over_seeds
 
     def doc(r, a, b):
         seeds = {"r1": {"A": [{"x_pct": v} if v is not None else {"status": "failed"}
@@ -361,7 +362,7 @@ def test_start_series_holds_every_start_and_the_figure_draws_them(scn, tmp_path)
     """With K = 3 starts: ``start_series`` holds, per replicate, each start's metric averaged
     over the scored runs, as read back from the replicate files; the mean over a replicate's
     starts is the replicate value the claims use (``series``); the starts figure is drawn."""
-    from fogbench.report import fig_starts
+    from fogbench.report.montecarlo import fig_starts
 
     mc, agg = run_mc(scn, tmp_path / "k3", make_executor(jobs=1), method_seeds=3)
     got = agg["start_series"]["own_run"]["rmse_dph"]["bp"]
@@ -386,8 +387,8 @@ def test_a_mean_over_fewer_runs_names_them_and_the_takeaway_says_so():
     the scored runs names them (``runs``), and the takeaway says "on <run> only"."""
     from types import SimpleNamespace
 
-    from fogbench import claim_figures as CF
-    from fogbench import montecarlo as MC
+    from fogbench.report import claims as CF
+    from fogbench.run import montecarlo as MC
 
     docs = [{"replicate": r, "protocols": {"p": {"runs": {
         "moving": {"raw": {"rmse_dph": 10.0 + r}, "oracle": {"rmse_dph": 9.0 + r}},

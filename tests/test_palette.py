@@ -1,5 +1,5 @@
 """One palette and one set of units for the PNG figures and the Rerun recording
-(fogbench/palette.py): every bundled method label has a colour, families are told apart by a
+(fogbench/report/palette.py): every bundled method label has a colour, families are told apart by a
 perceptual distance computed here by hand (sRGB -> CIE Lab, CIE76), the viewer and the PNGs
 give a label the same colour, and the Allan figure stops where too few independent clusters
 remain (IEEE Std 952 / NIST SP 1065: at least 8 non-overlapping clusters)."""
@@ -15,10 +15,14 @@ import numpy as np
 import pytest
 
 from fogcomp.units import DPH
-from fogbench import palette as PAL
-from fogbench import recording as REC
-from fogbench import report as R
-from fogbench.runner import RUNNER_SECTIONS, Piece, Scored
+from fogbench.outputs import files
+from fogbench.report import palette as PAL
+from fogbench.recording import blueprint as recording_blueprint
+from fogbench.recording import entities as recording_entities
+from fogbench.report import spectra as report_spectra
+from fogbench.report import thermal as report_thermal
+from fogbench.report import timeseries as report_timeseries
+from fogbench.run.runner import RUNNER_SECTIONS, Piece, Scored
 from fogbench.scenario import load_plan, load_scenario
 
 SCENARIOS = sorted(glob.glob("scenarios/*.toml"))
@@ -138,7 +142,7 @@ def _item(labels, n=5000, fs=10.0, seed=0, protocol="p"):
 @pytest.fixture
 def figs(monkeypatch):
     kept = []
-    monkeypatch.setattr(R, "_save", lambda fig, path: kept.append(fig))
+    monkeypatch.setattr(files, "save_figure", lambda fig, path: kept.append(fig))
     yield kept
     import matplotlib.pyplot as plt
 
@@ -170,23 +174,23 @@ def test_viewer_and_png_give_a_label_the_same_colour(figs, tmp_path, path):
     plan = _plan(path)
     labels = [m.label for m in plan.methods]
     it = _item(labels)
-    assert R.fig_allan(it, tmp_path / "a.png", plan=plan)
+    assert report_spectra.fig_allan(it, tmp_path / "a.png", plan=plan)
     png = _png_colours(figs[-1])
-    viewer = REC._method_colors(SimpleNamespace(plan=plan))
-    # a sweep is one envelope with its default setting's line (fogbench.views.method_entries)
+    viewer = recording_entities._method_colors(SimpleNamespace(plan=plan))
+    # a sweep is one envelope with its default setting's line (fogbench.report.views.method_entries)
     shown = [m.label for m in plan.methods if not m.group or m.paper_setting]
     assert set(png) == {"raw", "oracle", *shown}
     for lab, c in png.items():
-        assert tuple(REC._piece_color(viewer, lab, False)[:3]) == c, lab
+        assert tuple(recording_entities._piece_color(viewer, lab, False)[:3]) == c, lab
     # the time series and PSD figures use the same colours
-    R.fig_psd(it, tmp_path / "p.png", plan=plan)
+    report_spectra.fig_psd(it, tmp_path / "p.png", plan=plan)
     assert _png_colours(figs[-1]) == png
 
 
 def test_allan_figure_stops_at_eight_non_overlapping_clusters_with_a_band(figs, tmp_path):
     n, fs = 5000, 10.0
     it = _item(["m1"], n=n, fs=fs)
-    assert R.fig_allan(it, tmp_path / "a.png")
+    assert report_spectra.fig_allan(it, tmp_path / "a.png")
     ax = figs[-1].axes[0]
     # octave averaging factors m = 1, 2, 4, ...; the largest with floor(n / m) >= 8
     m_max = 1
@@ -210,7 +214,7 @@ def test_allan_figure_draws_the_identified_white_noise_model(figs, tmp_path):
     it = _item([], n=n, fs=fs, seed=4)
     rng = np.random.default_rng(9)
     it.outputs["raw"] = it.piece.truth + rng.standard_normal(n) * sigma * DPH
-    assert R.fig_allan(it, tmp_path / "a.png")
+    assert report_spectra.fig_allan(it, tmp_path / "a.png")
     ax = figs[-1].axes[0]
     model = [ln for ln in ax.get_lines() if ln.get_label().startswith("raw: identified model")]
     assert len(model) == 1
@@ -222,13 +226,13 @@ def test_allan_figure_draws_the_identified_white_noise_model(figs, tmp_path):
 
 def test_error_units_are_deg_per_h_in_png_as_in_the_viewer(figs, tmp_path):
     it = _item(["m1"], n=600, fs=10.0)
-    R.fig_timeseries(it, tmp_path / "t.png")
+    report_timeseries.fig_timeseries(it, tmp_path / "t.png")
     ax = figs[-1].axes[-1]
     assert "deg/h" in ax.get_ylabel() and "time since power-on, s" in ax.get_xlabel()
     ln = next(x for x in ax.get_lines() if x.get_label() == "m1")
     p = it.piece
     np.testing.assert_allclose(ln.get_ydata(), (it.outputs["m1"] - p.truth) / DPH)
-    R.fig_psd(it, tmp_path / "p.png")
+    report_spectra.fig_psd(it, tmp_path / "p.png")
     assert "(deg/h)^2/Hz" in figs[-1].axes[0].get_ylabel()
 
 
@@ -256,18 +260,18 @@ def test_a_sensor_step_does_not_fill_the_temperature_axis(figs, tmp_path):
                          truth_axis=lambda j: np.zeros(t.size))
     res = SimpleNamespace(data={"r1": rd}, scenario=SimpleNamespace(axes=("z",)),
                           plan=SimpleNamespace(axis="z", paper=(), protocols=()))
-    assert R.fig_thermal(res, "r1", tmp_path / "th.png")
+    assert report_thermal.fig_thermal(res, "r1", tmp_path / "th.png")
     lo, hi = figs[-1].axes[0].get_ylim()
     assert hi - lo >= 1.0 - 1e-12
 
 
 def test_the_viewer_temperature_axis_spans_at_least_one_degree():
     w = SimpleNamespace(ranges={"/a": (20.0, 20.0625), "/b": (20.0, 20.0)})
-    ax = REC._y_axis(w, ["/a", "/b"], unit="deg C")
+    ax = recording_blueprint._y_axis(w, ["/a", "/b"], unit="deg C")
     lo, hi = (float(v) for v in np.asarray(ax.range.as_arrow_array().to_pylist()[0]))
     assert hi - lo >= 1.0 - 1e-12 and lo <= 20.0 and hi >= 20.0625
     w = SimpleNamespace(ranges={"/a": (20.0, 45.0)})       # a real thermal program: autoscaled
-    assert REC._y_axis(w, ["/a"], unit="deg C") is None
+    assert recording_blueprint._y_axis(w, ["/a"], unit="deg C") is None
 
 
 def test_no_member_of_any_family_passes_for_raw_or_the_oracle():

@@ -1,10 +1,9 @@
-"""Tests of fogbench.reallog through its command functions: real data (ADIS16405 static log,
+"""Tests of fogbench.logs through its command functions: real data (ADIS16405 static log,
 imucal's Ferraris session, the FOG curves) and every class of bad input, each checked to write
 nothing."""
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import os
@@ -13,13 +12,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fogbench.logformats.errors import LogError
-from fogbench.reallog import add_commands
+from fogbench.formats.errors import LogError
+from fogbench.cli import build_parser
 
 DEG = math.pi / 180.0
 
 
-from helpers import need_realdata, realdata_dir as _realdata_dir  # noqa: E402
+from helpers import need_realdata, realdata_dir as _realdata_dir
 
 
 REAL = _realdata_dir()
@@ -27,9 +26,7 @@ REAL = _realdata_dir()
 
 def run(argv):
     """What the main CLI does: parse, call func, turn a ValueError into exit code 2."""
-    p = argparse.ArgumentParser(prog="fogbench")
-    add_commands(p.add_subparsers(dest="command", required=True))
-    args = p.parse_args([str(a) for a in argv])
+    args = build_parser().parse_args([str(a) for a in argv])
     try:
         return args.func(args), None
     except ValueError as exc:
@@ -290,7 +287,7 @@ def test_log_error_is_a_value_error():
 
 # ---------------------------------------------------------------------------------------------
 # Outputs: an existing one is refused unless --overwrite, and only the command's own is replaced
-from helpers import run_cli  # noqa: E402
+from helpers import run_cli
 
 
 def _bytes(paths):
@@ -384,7 +381,6 @@ def test_allan_replaces_only_a_folder_of_its_own(tmp_path):
     assert json.loads((o / "allan.json").read_text())["format"] == "fogbench-allan"
 
 
-
 @pytest.mark.parametrize("case", ["allan-file", "compensate-dir", "calibrate-dir",
                                   "under-a-file", "allan-under-a-file"])
 def test_out_of_the_wrong_kind_is_an_error_not_a_traceback(tmp_path, case):
@@ -453,7 +449,7 @@ def test_allan_refuses_a_stuck_channel(tmp_path):
 
 
 def test_one_minimum_record_length_for_allan_and_calibrate(tmp_path):
-    from fogbench.logformats.table import MIN_RECORD_SAMPLES
+    from fogbench.formats.table import MIN_RECORD_SAMPLES
 
     # at least 5 octave taus (1..16 samples), the longest usable being (n - 1) // 2
     assert (MIN_RECORD_SAMPLES - 1) // 2 >= 16
@@ -585,7 +581,7 @@ def test_compensate_says_a_column_comes_from_the_model(tmp_path):
 def test_allan_figure_draws_each_term_and_marks_upper_bounds():
     import matplotlib.pyplot as plt
 
-    from fogbench.noise_report import figure
+    from fogbench.report.noise import figure
     from fogcomp.noise import identify_noise_model
 
     floor = math.sqrt(2 * math.log(2) / math.pi)     # IEEE 952 C.13, flicker floor / B
@@ -620,7 +616,7 @@ def test_allan_figure_draws_each_term_and_marks_upper_bounds():
 def test_csv_writer_matches_pandas_to_csv(tmp_path):
     import pandas as pd
 
-    from fogbench.reallog.compensate import _write_csv
+    from fogbench.logs.compensate import _write_csv
 
     rng = np.random.default_rng(3)
     n = 250_001                                       # several write chunks, one partial
@@ -638,7 +634,7 @@ def test_csv_writer_matches_pandas_to_csv(tmp_path):
 
 
 def test_added_columns_have_ten_significant_digits():
-    from fogbench.reallog.compensate import _significant
+    from fogbench.logs.compensate import _significant
 
     rng = np.random.default_rng(4)
     x = rng.standard_normal(20_000) * 10.0 ** rng.integers(-12, 8, 20_000)

@@ -1,4 +1,4 @@
-"""The Rerun recording of a run (fogbench/recording.py), read back with rerun's own .rrd reader.
+"""The Rerun recording of a run (fogbench/recording/__init__.py), read back with rerun's own .rrd reader.
 
 rerun-sdk 0.41 reads a file with ``rerun.chunk.RrdReader(path)``: ``recordings()`` /
 ``blueprints()`` list the stores, ``stream()`` yields the chunks of the first recording, and each
@@ -17,14 +17,19 @@ import numpy as np
 import pyarrow as pa
 import pytest
 import scipy.signal
-import scipy.stats
 from rerun.chunk import RrdReader
 
 import fogcomp
 from fogcomp.base import Compensator, register
 from fogcomp.units import DPH, DPS
 from fogbench import recording as R
-from fogbench.runner import run_scenario
+from fogbench.recording import blueprint as recording_blueprint
+from fogbench.recording import entities as recording_entities
+from fogbench.recording import loglog as recording_loglog
+from fogbench.recording import viewer as recording_viewer
+from fogbench.recording import write as recording_write
+from fogbench.report.views import method_entries
+from fogbench.run.runner import run_scenario
 
 TINY = """
 [scenario]
@@ -333,9 +338,9 @@ def test_table_poses_follow_the_truth_quaternions(tiny):
     _, q = rrd.column("/table/test_run/tilt", "Transform3D:quaternion")
     assert_f32_equal(q, rd.truth.tilt_quat[::k][:, [1, 2, 3, 0]], "tilt quaternion (xyzw)")
     _, g = rrd.column("/table/test_run/fog/gravity", "Arrows3D:vectors")
-    assert_f32_equal(g, rd.truth.gravity[::k] * R.GRAVITY_ARROW_M_PER_G, "gravity arrow")
+    assert_f32_equal(g, rd.truth.gravity[::k] * recording_entities.GRAVITY_ARROW_M_PER_G, "gravity arrow")
     # tilted 30 deg about x: gravity has a y component in the sensor frame
-    assert abs(g[0, 1] / R.GRAVITY_ARROW_M_PER_G - 0.5) < 1e-6
+    assert abs(g[0, 1] / recording_entities.GRAVITY_ARROW_M_PER_G - 0.5) < 1e-6
 
 
 def test_static_report_documents(tiny):
@@ -349,8 +354,8 @@ def test_static_report_documents(tiny):
 
 def test_long_runs_are_decimated_as_documented(tiny, tmp_path, monkeypatch):
     res, _, _ = tiny
-    monkeypatch.setattr(R, "MAX_SERIES_POINTS", 250)
-    monkeypatch.setattr(R, "MAX_POSE_POINTS", 100)
+    monkeypatch.setattr(recording_write, "MAX_SERIES_POINTS", 250)
+    monkeypatch.setattr(recording_write, "MAX_POSE_POINTS", 100)
     R.write_recording(res, tmp_path / "recording.rrd")
     rrd = Rrd(tmp_path / "recording.rrd")
     j = res.scenario.axes.index(res.plan.axis)
@@ -396,8 +401,8 @@ def test_view_without_a_recording_exits_2_naming_the_path(tmp_path, capsys):
 
 def test_view_without_a_viewer_says_how_to_open_the_file(tmp_path, capsys, monkeypatch):
     (tmp_path / "recording.rrd").write_bytes(b"x")
-    monkeypatch.setattr(R, "_viewer_command", lambda: None)
-    monkeypatch.setattr(R.subprocess, "Popen", _no_popen)
+    monkeypatch.setattr(recording_viewer, "_viewer_command", lambda: None)
+    monkeypatch.setattr(recording_viewer.subprocess, "Popen", _no_popen)
     assert R.view(tmp_path) == 1
     err = capsys.readouterr().err
     assert f"rerun {tmp_path / 'recording.rrd'}" in err and "pip install rerun-sdk" in err
@@ -405,9 +410,9 @@ def test_view_without_a_viewer_says_how_to_open_the_file(tmp_path, capsys, monke
 
 def test_view_without_a_display_says_how_to_open_the_file(tmp_path, capsys, monkeypatch):
     (tmp_path / "recording.rrd").write_bytes(b"x")
-    monkeypatch.setattr(R, "_viewer_command", lambda: ["/opt/fake/rerun"])
-    monkeypatch.setattr(R, "_has_display", lambda: False)
-    monkeypatch.setattr(R.subprocess, "Popen", _no_popen)
+    monkeypatch.setattr(recording_viewer, "_viewer_command", lambda: ["/opt/fake/rerun"])
+    monkeypatch.setattr(recording_viewer, "_has_display", lambda: False)
+    monkeypatch.setattr(recording_viewer.subprocess, "Popen", _no_popen)
     assert R.view(tmp_path) == 1
     assert f"rerun {tmp_path / 'recording.rrd'}" in capsys.readouterr().err
 
@@ -415,9 +420,9 @@ def test_view_without_a_display_says_how_to_open_the_file(tmp_path, capsys, monk
 def test_without_a_display_the_first_suggestion_is_the_local_web_viewer(tmp_path, capsys,
                                                                        monkeypatch):
     (tmp_path / "recording.rrd").write_bytes(b"x")
-    monkeypatch.setattr(R, "_viewer_command", lambda: ["/opt/fake/rerun"])
-    monkeypatch.setattr(R, "_has_display", lambda: False)
-    monkeypatch.setattr(R.subprocess, "Popen", _no_popen)
+    monkeypatch.setattr(recording_viewer, "_viewer_command", lambda: ["/opt/fake/rerun"])
+    monkeypatch.setattr(recording_viewer, "_has_display", lambda: False)
+    monkeypatch.setattr(recording_viewer.subprocess, "Popen", _no_popen)
     assert R.view(tmp_path) == 1
     err = capsys.readouterr().err
     assert err.index(f"fogbench view {tmp_path} --web") < err.index(f"rerun {tmp_path}")
@@ -522,8 +527,8 @@ def test_view_web_refuses_a_bind_it_cannot_resolve_in_one_line(tmp_path, capsys,
     from fogbench.cli import main
 
     _rrd(tmp_path)
-    monkeypatch.setattr(R, "_viewer_command", lambda: ["/opt/fake/rerun"])
-    monkeypatch.setattr(R.subprocess, "Popen", _no_popen)
+    monkeypatch.setattr(recording_viewer, "_viewer_command", lambda: ["/opt/fake/rerun"])
+    monkeypatch.setattr(recording_viewer.subprocess, "Popen", _no_popen)
     assert main(["view", str(tmp_path), "--web", "--bind", "no-such-host.invalid"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--bind" in err and "no-such-host.invalid" in err, err
@@ -553,8 +558,8 @@ def test_view_web_says_every_interface_only_for_the_unspecified_address(tmp_path
 
     _rrd(tmp_path)
     viewer = _ViewerThatEnds()
-    monkeypatch.setattr(R, "_viewer_command", lambda: ["/opt/fake/rerun"])
-    monkeypatch.setattr(R.subprocess, "Popen", viewer)
+    monkeypatch.setattr(recording_viewer, "_viewer_command", lambda: ["/opt/fake/rerun"])
+    monkeypatch.setattr(recording_viewer.subprocess, "Popen", viewer)
     assert main(["view", str(tmp_path), "--web", "--bind", bind]) == 0
     out = capsys.readouterr().out
     assert ("EVERY network interface" in out) == every, out
@@ -570,9 +575,9 @@ def test_view_flags_of_the_web_viewer_need_web(tmp_path, capsys, monkeypatch):
     from fogbench.cli import main
 
     _rrd(tmp_path)
-    monkeypatch.setattr(R, "_viewer_command", lambda: ["/opt/fake/rerun"])
-    monkeypatch.setattr(R, "_has_display", lambda: True)
-    monkeypatch.setattr(R.subprocess, "Popen", _FakeViewer)
+    monkeypatch.setattr(recording_viewer, "_viewer_command", lambda: ["/opt/fake/rerun"])
+    monkeypatch.setattr(recording_viewer, "_has_display", lambda: True)
+    monkeypatch.setattr(recording_viewer.subprocess, "Popen", _FakeViewer)
     _FakeViewer.calls = []
     assert main(["view", str(tmp_path)]) == 0      # the recording and the viewer are fine
     assert len(_FakeViewer.calls) == 1
@@ -599,16 +604,16 @@ class _FakeViewer:
 
 def test_view_spawns_the_viewer_on_the_file(tmp_path, monkeypatch):
     (tmp_path / "recording.rrd").write_bytes(b"x")
-    monkeypatch.setattr(R, "_viewer_command", lambda: ["/opt/fake/rerun"])
-    monkeypatch.setattr(R, "_has_display", lambda: True)
-    monkeypatch.setattr(R.subprocess, "Popen", _FakeViewer)
+    monkeypatch.setattr(recording_viewer, "_viewer_command", lambda: ["/opt/fake/rerun"])
+    monkeypatch.setattr(recording_viewer, "_has_display", lambda: True)
+    monkeypatch.setattr(recording_viewer.subprocess, "Popen", _FakeViewer)
     _FakeViewer.calls = []
     assert R.view(tmp_path) == 0
     assert _FakeViewer.calls == [["/opt/fake/rerun", str(tmp_path / "recording.rrd")]]
 
 
 def test_the_viewer_found_is_the_one_of_the_installed_rerun_sdk():
-    cmd = R._viewer_command()
+    cmd = recording_viewer._viewer_command()
     assert cmd is not None and cmd[0].endswith("rerun")
 
 
@@ -639,20 +644,20 @@ def test_every_time_series_view_opens_on_the_whole_run_and_their_time_axes_are_l
         assert axis.get("TimeAxis:link") == [2], f"{v}: time axis not linked to the global one"
         assert axis.get("TimeAxis:view_range") == whole
     # the shared (global) time axis the linked views use opens on the whole run too
-    assert props[f"/view/{R._GLOBAL_VIEW_ID}/TimeAxis"]["TimeAxis:view_range"] == whole
+    assert props[f"/view/{recording_blueprint._GLOBAL_VIEW_ID}/TimeAxis"]["TimeAxis:view_range"] == whole
 
 
 def test_a_view_of_values_constant_to_rounding_gets_a_fixed_range_around_them():
-    w = R._Writer(rec=None)
+    w = recording_entities._Writer(rec=None)
     w.ranges = {"/coil_rate": (-7e-9, 7e-9), "/temp": (20.0, 20.0 + 1e-12),
                 "/rate": (-60.2, -59.8)}
-    axis = R._y_axis(w, ["/coil_rate"])
+    axis = recording_blueprint._y_axis(w, ["/coil_rate"])
     lo, hi = axis.range.as_arrow_array().to_pylist()[0]
     assert lo <= -0.5 and hi >= 0.5           # noise of 1e-8 spans a hundred-millionth of it
-    lo, hi = R._y_axis(w, ["/temp"]).range.as_arrow_array().to_pylist()[0]
+    lo, hi = recording_blueprint._y_axis(w, ["/temp"]).range.as_arrow_array().to_pylist()[0]
     assert lo < 20.0 < hi and hi - lo >= 1.0
-    assert R._y_axis(w, ["/rate"]) is None     # a real variation is autoscaled
-    assert R._y_axis(w, ["/coil_rate", "/rate"]) is None
+    assert recording_blueprint._y_axis(w, ["/rate"]) is None     # a real variation is autoscaled
+    assert recording_blueprint._y_axis(w, ["/coil_rate", "/rate"]) is None
 
 
 def test_the_default_camera_sees_every_table(tiny):
@@ -663,7 +668,7 @@ def test_the_default_camera_sees_every_table(tiny):
     target = np.array(eye["EyeControls3D:look_target"][0])
     look = (target - pos) / np.linalg.norm(target - pos)
     for i, run in enumerate(res.data):
-        centre = np.array([0.0, i * R.TABLE_SPACING_M, -0.3])
+        centre = np.array([0.0, i * recording_entities.TABLE_SPACING_M, -0.3])
         d = centre - pos
         angle = math.degrees(math.acos(np.dot(d, look) / np.linalg.norm(d)))
         assert angle < 20.0, f"table {run} is {angle:.0f} deg off the camera's axis"
@@ -724,11 +729,11 @@ def test_a_log_log_plot_over_19_decades_labels_a_few_and_keeps_8(tmp_path):
 
     rec = rr.RecordingStream(application_id="t", recording_id="t", send_properties=False)
     mem = rec.memory_recording()
-    w = R._Writer(rec)
+    w = recording_entities._Writer(rec)
     f = np.logspace(-1, 2, 50)
     curves = [("raw", "raw", (128, 128, 128), f, 1e5 / f, None, None),
               ("m", "m", (214, 39, 40), f, 1e-13 * np.ones_like(f), None, None)]
-    R._loglog(w, "/p", curves, "frequency, Hz", "PSD, (deg/h)^2/Hz", "")
+    recording_loglog._loglog(w, "/p", curves, "frequency, Hz", "PSD, (deg/h)^2/Hz", "")
     rec.flush()
     (tmp_path / "p.rrd").write_bytes(mem.drain_as_bytes())
     rec.disconnect()
@@ -811,7 +816,7 @@ def test_allan_and_psd_plots_beyond_a_tab_s_share_go_in_a_tab_per_protocol(tmp_p
     past MAX_LOGLOG_VIEWS plots, a tab per protocol holding its own."""
     (tmp_path / "swept.toml").write_text(SWEPT)
     res = run_scenario(tmp_path / "swept.toml")
-    monkeypatch.setattr(R, "MAX_LOGLOG_VIEWS", 1)                   # 2 pieces: past it
+    monkeypatch.setattr(recording_blueprint, "MAX_LOGLOG_VIEWS", 1)                   # 2 pieces: past it
     R.write_recording(res, tmp_path / "recording.rrd")
     props = _blueprint_props(Rrd(tmp_path / "recording.rrd"))
     for tab in ("Allan deviation", "PSD"):
@@ -823,7 +828,7 @@ def test_allan_and_psd_plots_beyond_a_tab_s_share_go_in_a_tab_per_protocol(tmp_p
             (v,) = [props["/" + x] for x in k["ContainerBlueprint:contents"]]
             assert v["ViewBlueprint:space_origin"] == [
                 f"/report/{'allan' if tab.startswith('Allan') else 'psd'}/{prot}/test_run"]
-    monkeypatch.setattr(R, "MAX_LOGLOG_VIEWS", 6)                   # 2 pieces: one grid
+    monkeypatch.setattr(recording_blueprint, "MAX_LOGLOG_VIEWS", 6)                   # 2 pieces: one grid
     R.write_recording(res, tmp_path / "recording2.rrd")
     props = _blueprint_props(Rrd(tmp_path / "recording2.rrd"))
     (root,) = [c for c in props.values() if c.get("ContainerBlueprint:display_name") == ["PSD"]]
@@ -1014,7 +1019,7 @@ def test_off_scale_notes_and_protocol_names_stay_in_their_own_column(tiny, tmp_p
     R.write_recording(res, tmp_path / "recording.rrd", replicates=reps)
     rrd = Rrd(tmp_path / "recording.rrd")
     origin = "/report/replicates/rmse_dph"
-    half = 0.5 * R.LEGEND_CHAR_W
+    half = 0.5 * recording_entities.LEGEND_CHAR_W
     boxes = []
     for p in prots:
         tx = _static_component(rrd, f"{origin}/{p}/axes", "Transform3D:translation")[0][0]
@@ -1053,14 +1058,14 @@ def test_malformed_replicates_are_refused_naming_the_key_before_anything_is_writ
 def test_view_says_when_it_handed_the_file_to_a_viewer_already_running(tmp_path, monkeypatch,
                                                                      capsys):
     (tmp_path / "recording.rrd").write_bytes(b"x")
-    monkeypatch.setattr(R, "_viewer_command", lambda: ["/opt/fake/rerun"])
-    monkeypatch.setattr(R, "_has_display", lambda: True)
+    monkeypatch.setattr(recording_viewer, "_viewer_command", lambda: ["/opt/fake/rerun"])
+    monkeypatch.setattr(recording_viewer, "_has_display", lambda: True)
 
     class Handed(_FakeViewer):
         def wait(self, timeout=None):
             return 0                      # the rerun binary exits at once after handing over
 
-    monkeypatch.setattr(R.subprocess, "Popen", Handed)
+    monkeypatch.setattr(recording_viewer.subprocess, "Popen", Handed)
     assert R.view(tmp_path) == 0
     out = capsys.readouterr().out
     assert "already running" in out and str(tmp_path / "recording.rrd") in out
@@ -1169,10 +1174,10 @@ sweep = { level = [2, 3, 4] }
     (it,) = res.scored
     members = [lab for lab in it.outputs if lab.startswith("wband")]
     assert len(members) == 3, list(it.outputs)
-    default = R.method_entries(list(it.outputs), res.plan)
+    default = method_entries(list(it.outputs), res.plan)
     (sweep,) = [e for e in default if e["group"] == "wband"]
     def path(*parts):
-        return R._p("runs", it.run, "fog", *parts)       # the labels escaped as entity paths
+        return recording_entities._p("runs", it.run, "fog", *parts)       # the labels escaped as entity paths
 
     err = {lab: rrd.scalars(path("error", it.protocol, lab))[1] for lab in members}
     d = sweep["default"]
@@ -1205,7 +1210,7 @@ sweep = { level = [2, 3, 4] }
                                             rate=it.piece.fs, data_type="freq", taus="octave")
         keep = [math.floor(it.piece.t.size / round(tau * it.piece.fs)) >= 8 for tau in taus]
         curves.append(adev[keep])
-        assert (f"{root}/{R._p(m)[1:]}" in rrd.paths) == (m == d), m
+        assert (f"{root}/{recording_entities._p(m)[1:]}" in rrd.paths) == (m == d), m
     for end, want in (("low", np.min(curves, axis=0)), ("high", np.max(curves, axis=0))):
-        xy = rrd.static_strips(f"{root}/{R._p(f'wband envelope {end}')[1:]}")[0]
+        xy = rrd.static_strips(f"{root}/{recording_entities._p(f'wband envelope {end}')[1:]}")[0]
         np.testing.assert_allclose(10 ** xy[:, 1], want, rtol=1e-5)

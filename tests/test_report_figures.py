@@ -1,4 +1,4 @@
-"""The report's figures (fogbench/report.py): every curve stays visible, axes cover the range that
+"""The report's figures (fogbench/report/__init__.py): every curve stays visible, axes cover the range that
 matters, multi-position tests show per-dwell means, legends name what is drawn.
 
 Figures are drawn from small hand-made scored pieces; ``report._save`` is replaced by a function
@@ -17,14 +17,21 @@ from matplotlib.container import ErrorbarContainer
 
 from fogcomp.units import DPH, DPS
 from fogbench import report as R
-from fogbench.runner import Piece, Scored
+from fogbench.report import coefficients as report_coefficients
+from fogbench.report import spectra as report_spectra
+from fogbench.report import style as report_style
+from fogbench.report import thermal as report_thermal
+from fogbench.report import timeseries as report_timeseries
+from fogbench.run.runner import Piece, Scored
+from fogbench.run.runner import TERM_NAMES
+from fogbench.outputs import files
 
 
 @pytest.fixture
 def figs(monkeypatch):
     """Figures passed to ``_save``, kept open instead of written."""
     kept = []
-    monkeypatch.setattr(R, "_save", lambda fig, path: kept.append(fig))
+    monkeypatch.setattr(files, "save_figure", lambda fig, path: kept.append(fig))
     yield kept
     import matplotlib.pyplot as plt
 
@@ -96,12 +103,12 @@ def _style(ln):
 def test_raw_is_above_oracle_and_every_curve_has_its_own_style(figs, tmp_path, kind):
     it = _static_item()
     if kind == "allan":
-        assert R.fig_allan(it, tmp_path / "a.png")
+        assert report_spectra.fig_allan(it, tmp_path / "a.png")
     elif kind == "psd":
-        R.fig_psd(it, tmp_path / "p.png")
+        report_spectra.fig_psd(it, tmp_path / "p.png")
     else:
         # a continuous static record (no gaps): the time-series figure, not the dwell one
-        R.fig_timeseries(it, tmp_path / "t.png")
+        report_timeseries.fig_timeseries(it, tmp_path / "t.png")
     fig = figs[-1]
     by_ax = _lines_by_label(fig)
     err_ax = fig.axes[-1] if kind == "timeseries" else fig.axes[0]
@@ -120,10 +127,10 @@ def test_raw_is_above_oracle_and_every_curve_has_its_own_style(figs, tmp_path, k
 
 def test_psd_axis_stays_within_the_range_that_matters(figs, tmp_path):
     it = _static_item()
-    R.fig_psd(it, tmp_path / "p.png")
+    report_spectra.fig_psd(it, tmp_path / "p.png")
     ax = figs[-1].axes[0]
     lo, hi = ax.get_ylim()
-    assert math.log10(hi / lo) <= R.PSD_MAX_DECADES + 1e-9
+    assert math.log10(hi / lo) <= report_spectra.PSD_MAX_DECADES + 1e-9
     # the raw and oracle curves (white noise, 5 deg/h per sample at 10 Hz) are inside the axis
     lines = _lines_by_label(figs[-1])[ax]
     for lab in ("raw", "oracle", "flnn_lstsq"):
@@ -193,7 +200,7 @@ def test_dwell_means_equal_a_slow_twin():
 
 def test_multi_position_pieces_are_plotted_as_dwell_means_in_deg_per_h(figs, tmp_path):
     it, fs = _dwell_item()
-    R.fig_timeseries(it, tmp_path / "t.png")
+    report_timeseries.fig_timeseries(it, tmp_path / "t.png")
     fig = figs[-1]
     assert all("deg/h" in ax.get_ylabel() for ax in fig.axes)
     # below the positions: raw and oracle's dwell-mean errors, then the methods' zoomed to them
@@ -231,8 +238,8 @@ def test_many_dwells_are_joined_lines_without_bars(figs, tmp_path, monkeypatch):
     oracle's dwell means, the deterministic error it leaves (here the 0.1 deg/h the fit leaves
     over the oracle, noise-free), the oracle a zero line."""
     it, fs = _dwell_item()
-    monkeypatch.setattr(R, "DWELL_BARS_MAX", 3)         # 5 dwells: more than 3
-    R.fig_timeseries(it, tmp_path / "t.png")
+    monkeypatch.setattr(report_timeseries, "DWELL_BARS_MAX", 3)         # 5 dwells: more than 3
+    report_timeseries.fig_timeseries(it, tmp_path / "t.png")
     fig = figs[-1]
     assert not any(isinstance(c, ErrorbarContainer) for ax in fig.axes for c in ax.containers)
     for lab in ("raw", "oracle"):
@@ -257,7 +264,7 @@ def test_members_of_one_family_differ_in_marker_in_the_dwell_figure(figs, tmp_pa
     plan = SimpleNamespace(methods=tuple(
         SimpleNamespace(label=lab, name="flnn", group=None, paper_setting=False, setting={},
                         params={}) for lab in ("flnn", "flnn_b")))
-    R.fig_timeseries(it, tmp_path / "t.png", plan)
+    report_timeseries.fig_timeseries(it, tmp_path / "t.png", plan)
     marker = {c.get_label(): c.lines[0].get_marker() for ax in figs[-1].axes[1:]
               for c in ax.containers if isinstance(c, ErrorbarContainer)}
     assert marker["raw"] == "D" and marker["oracle"] == "s"
@@ -287,7 +294,7 @@ def _thermal_res():
 
 def test_every_curve_of_the_thermal_figure_is_in_its_legend(figs, tmp_path):
     res = _thermal_res()
-    assert R.fig_thermal(res, "r1", tmp_path / "th.png")
+    assert report_thermal.fig_thermal(res, "r1", tmp_path / "th.png")
     fig = figs[-1]
     plotted = _plotted_labels(fig)
     assert any("dT/dt" in lab for lab in plotted)
@@ -328,7 +335,7 @@ def test_the_thermal_loop_opens_by_twice_the_shupe_term(figs, tmp_path, shupe):
     """thermal.png's bias-against-temperature panel: at 30 deg C, mid-ramp, the heating and the
     cooling branch sit apart by 2 c r (a bias c dT/dt, ramps of +-r = 1/60 deg C/s), analytic;
     with no term in dT/dt they coincide (no loop drawn where the physics has none)."""
-    assert R.fig_thermal(_loop_res(shupe), "r1", tmp_path / "th.png")
+    assert report_thermal.fig_thermal(_loop_res(shupe), "r1", tmp_path / "th.png")
     by = {ln.get_gid(): ln for ax in figs[-1].axes for ln in ax.get_lines()
           if str(ln.get_gid()).startswith("loop:")}
     assert {"loop:heating", "loop:cooling", "loop:steady"} <= set(by)
@@ -348,14 +355,14 @@ def test_the_thermal_loop_opens_by_twice_the_shupe_term(figs, tmp_path, shupe):
 
 def test_every_curve_of_allan_and_psd_is_in_the_legend(figs, tmp_path):
     it = _static_item()
-    R.fig_allan(it, tmp_path / "a.png")
-    R.fig_psd(it, tmp_path / "p.png")
+    report_spectra.fig_allan(it, tmp_path / "a.png")
+    report_spectra.fig_psd(it, tmp_path / "p.png")
     for fig in figs:
         assert _plotted_labels(fig) <= _legend_texts(fig)
 
 
 def _coef_res():
-    names = R.TERM_NAMES
+    names = TERM_NAMES
     true = {n: float(v) for n, v in zip(names, [7.8, 7.1, 4.8, -5.4, 1.3, 0.6, -0.5, 0.27,
                                                -0.22, 0.14])}
     err = {n: 0.05 for n in names}
@@ -373,7 +380,7 @@ def test_unidentified_coefficients_are_hatched_clipped_and_labelled(figs, tmp_pa
     flat bars beside the 7.8 deg/h bias), each scaled to its own true values and identified
     estimates; the unidentified d8, d9 (-7300, -9000 deg/h/g^2) hatched, clipped, labelled."""
     res = _coef_res()
-    assert R.fig_coefficients(res, "held_out", tmp_path / "c.png")
+    assert report_coefficients.fig_coefficients(res, "held_out", tmp_path / "c.png")
     fig = figs[-1]
     d0, dg, dg2 = fig.axes[:3]
     assert [t.get_text() for t in dg2.get_xticklabels()] == [f"d{i}" for i in range(4, 10)]
@@ -385,8 +392,8 @@ def test_unidentified_coefficients_are_hatched_clipped_and_labelled(figs, tmp_pa
     hatched = [p for p in dg2.patches if p.get_hatch() and np.isfinite(p.get_height())]
     assert len(hatched) == 2
     texts = [t.get_text() for t in dg2.texts]
-    assert texts.count(R.NOT_IDENTIFIED) == 2
-    assert any(R.NOT_IDENTIFIED in t for t in _legend_texts(fig))
+    assert texts.count(report_style.NOT_IDENTIFIED) == 2
+    assert any(report_style.NOT_IDENTIFIED in t for t in _legend_texts(fig))
     title = fig._suptitle.get_text()
     assert "fit" in title and "test" in title and "first power-on" not in title
     assert _plotted_labels(fig) <= _legend_texts(fig)
@@ -395,7 +402,7 @@ def test_unidentified_coefficients_are_hatched_clipped_and_labelled(figs, tmp_pa
 def test_raw_segment_bias_stability_equals_a_slow_twin_of_paper002_eq5():
     """Paper 002 eq. 5 by hand: the sample standard deviation of the 100 s means of each
     thermal segment (incomplete last block dropped)."""
-    from fogbench.runner import thermal_segments
+    from fogbench.run.runner import thermal_segments
 
     res = _thermal_res()
     rd = res.data["r1"]
@@ -460,7 +467,7 @@ def test_simulate_writes_saturation_flags_and_the_sensor_columns(tmp_path):
     """`fogbench simulate`: ``saturated`` (n, a) bool is set exactly where the true rate is
     beyond the 100 deg/s range; the sensor reading is quantised to its 0.0625 C step and lags
     the true coil; the documented columns are all there."""
-    from fogbench.io import read_run
+    from helpers import read_run
     from helpers import run_cli
 
     scn = tmp_path / "io_tiny.toml"
@@ -491,8 +498,8 @@ def test_log_axis_tick_labels_never_collide_and_at_least_two_show(figs, tmp_path
     printed 3x10^-4 into 4x10^-4. Drawn, the tick labels of every log axis of the PSD and Allan
     figures keep apart (their rendered boxes do not overlap) and each axis keeps two labels."""
     it = _static_item(n=n)
-    R.fig_psd(it, tmp_path / "p.png")
-    R.fig_allan(it, tmp_path / "a.png")
+    report_spectra.fig_psd(it, tmp_path / "p.png")
+    report_spectra.fig_allan(it, tmp_path / "a.png")
     for fig in figs:
         fig.canvas.draw()
         rend = fig.canvas.get_renderer()
@@ -519,15 +526,15 @@ def test_a_smoother_far_below_raw_does_not_squeeze_the_allan_axis(figs, tmp_path
     it = _static_item(n=4096)
     e = it.outputs["raw"] - it.piece.truth
     it.outputs["wavelet_soft"] = it.piece.truth + 1e-5 * (e - e.mean())   # 5 decades down
-    R.fig_allan(it, tmp_path / "a.png")
+    report_spectra.fig_allan(it, tmp_path / "a.png")
     ax = figs[-1].axes[0]
     raw = next(ln for ln in ax.get_lines() if ln.get_label() == "raw")
     low = np.nanmin(raw.get_ydata())
-    assert ax.get_ylim()[0] == pytest.approx(low * 10.0 ** -R.ALLAN_DECADES_BELOW_RAW, rel=1e-9)
+    assert ax.get_ylim()[0] == pytest.approx(low * 10.0 ** -report_spectra.ALLAN_DECADES_BELOW_RAW, rel=1e-9)
     assert any(ln.get_label() == "wavelet_soft (falls below the axis)" for ln in ax.get_lines())
     figs.clear()
     it.outputs["wavelet_soft"] = it.piece.truth + 0.1 * (e - e.mean())    # one decade down
-    R.fig_allan(it, tmp_path / "a.png")
+    report_spectra.fig_allan(it, tmp_path / "a.png")
     ax = figs[-1].axes[0]
     assert ax.get_ylim()[0] < 0.1 * low
     assert not any("falls below" in ln.get_label() for ln in ax.get_lines())
@@ -542,7 +549,7 @@ def test_the_thermal_loop_draws_the_true_thermal_term_beside_the_raw_points(figs
     thermal = rd.fog.raw.copy()
     rd.fog.raw = thermal + 1.0 * DPH
     rd.fog.terms = {"temperature": thermal}
-    assert R.fig_thermal(res, "r1", tmp_path / "th.png")
+    assert report_thermal.fig_thermal(res, "r1", tmp_path / "th.png")
     lines = {ln.get_gid(): ln for ax in figs[-1].axes for ln in ax.get_lines()}
     line = lines["loop:true_term"]
     pts = np.concatenate([lines[f"loop:{k}"].get_ydata() for k in ("heating", "cooling",

@@ -1,10 +1,12 @@
 """The one-line takeaway at the top of a report, and the side of a "disagrees" in it."""
 
-from fogbench.report import _with_takeaway, takeaway
+from fogbench.report.claims import open_on_answer, takeaway
 
 
 def _c(verdict, mean, lo=70.0, hi=90.0):
-    return {"verdict": verdict, "min_pct": lo, "max_pct": hi, "summary": {"mean": mean}}
+    return {"verdict": verdict, "min_pct": lo, "max_pct": hi, "summary": {"mean": mean},
+            "better": "wnn", "than": "raw", "metric": "std_dps", "protocol": "held_out",
+            "source": "paper 000", "text": "a claim"}
 
 
 def test_the_takeaway_counts_verdicts_and_says_which_side_a_disagreement_is_on():
@@ -15,8 +17,9 @@ def test_the_takeaway_counts_verdicts_and_says_which_side_a_disagreement_is_on()
     assert line.startswith("**In short:** 5 claim verdict(s) over 20 replicates: 1 agree, "
                            "2 disagree (falls short of the claim), 1 disagree (exceeds the "
                            "claim), 1 inconclusive")
-    text = _with_takeaway("# name\n\ndescription\n\nmore", mc)
+    text = open_on_answer("# name\n\ndescription\n\nmore", "## Over 20 replicates", mc, {})
     assert text.splitlines()[2] == line
+    assert text.splitlines()[0] == "# name"      # the title, then the answer, then the rest
     assert takeaway({"claims": []}) is None
 
 
@@ -27,7 +30,7 @@ def _s(mean, lo, hi):
 def test_without_claims_the_takeaway_places_each_method_by_its_interval_against_raw():
     from types import SimpleNamespace
 
-    from fogbench.claim_figures import metric_takeaway
+    from fogbench.report.claims import metric_takeaway
 
     def prot(**labs):
         out = {"raw": {"rmse_dph": _s(600.0, 570.0, 630.0)}}
@@ -54,7 +57,7 @@ def test_without_claims_the_takeaway_places_each_method_by_its_interval_against_
     assert line.endswith("(oracle: oracle 1.6 [-0.3, 3.5])")
     assert "over 20 replicates" in text
     # the report opens on it
-    from fogbench.claim_figures import open_on_answer
+    from fogbench.report.claims import open_on_answer
     out = open_on_answer("# name\n\nset-up", "## Over 20 replicates", mc, {}, plan)
     assert out.splitlines()[2].startswith("**In short**")
     # no key metric with an improvement: no takeaway
@@ -69,7 +72,7 @@ def test_a_key_metric_every_method_leaves_unchanged_is_followed_by_the_rmse():
     methods apart gets no second line."""
     from types import SimpleNamespace
 
-    from fogbench.claim_figures import metric_takeaway
+    from fogbench.report.claims import metric_takeaway
 
     def labs(stab, rmse):
         out = {"raw": {"bias_stability_100s_dph": _s(1.0, 0.9, 1.1), "rmse_dph": _s(4.4, 4, 5)}}

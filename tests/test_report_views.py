@@ -1,5 +1,5 @@
 """Views that show the effect (issue 26): the PNG time series, PSD and Allan figures of
-fogbench/report.py draw a sweep as an envelope (its default marked), at most 8 lines a panel with
+fogbench/report/__init__.py draw a sweep as an envelope (its default marked), at most 8 lines a panel with
 legends outside the data, the methods' errors zoomed to them with raw in a panel of its own when
 it dwarfs them, what every output keeps alike taken out; Allan and PSD figures are left out (not
 written, not linked) for pieces made of separate static dwells; thermal.png shows a scored run.
@@ -17,14 +17,22 @@ import numpy as np
 import pytest
 
 from fogbench import report as R
-from fogbench.runner import Piece, Scored
+from fogbench.report import coefficients as report_coefficients
+from fogbench.report import montecarlo as report_montecarlo
+from fogbench.report import spectra as report_spectra
+from fogbench.report import style as report_style
+from fogbench.report import thermal as report_thermal
+from fogbench.report import timeseries as report_timeseries
+from fogbench.run.runner import Piece, Scored
+from fogbench.run.runner import TERM_NAMES
+from fogbench.outputs import files
 from fogcomp.units import DPH
 
 
 @pytest.fixture
 def figs(monkeypatch):
     kept = []
-    monkeypatch.setattr(R, "_save", lambda fig, path: kept.append(fig))
+    monkeypatch.setattr(files, "save_figure", lambda fig, path: kept.append(fig))
     yield kept
     import matplotlib.pyplot as plt
 
@@ -88,7 +96,7 @@ def _envelope(ax, group):
 def test_a_sweep_is_drawn_as_the_envelope_of_its_members_with_its_default_marked(figs, tmp_path):
     it = _dwarfed_item()
     plan = _plan()
-    R.fig_timeseries(it, tmp_path / "t.png", plan=plan)
+    report_timeseries.fig_timeseries(it, tmp_path / "t.png", plan=plan)
     fig = figs[-1]
     axes = [ax for ax in fig.axes
             if any(c.get_gid() == "envelope:band" for c in ax.collections)]
@@ -119,7 +127,7 @@ def test_the_psd_envelope_is_the_members_welch_spectra(figs, tmp_path):
     from scipy.signal import welch
 
     it = _dwarfed_item()
-    R.fig_psd(it, tmp_path / "p.png", plan=_plan())
+    report_spectra.fig_psd(it, tmp_path / "p.png", plan=_plan())
     ax = next(a for a in figs[-1].axes if any(c.get_gid() == "envelope:band"
                                               for c in a.collections))
     xs, lo, hi = _envelope(ax, "band")
@@ -156,7 +164,7 @@ def test_no_panel_has_more_than_eight_lines_and_legends_stay_outside_the_data(fi
     rng = np.random.default_rng(5)
     for s in extra:
         it.outputs[s.label] = it.piece.truth + rng.standard_normal(it.piece.t.size) * 3.0 * DPH
-    fn = {"timeseries": R.fig_timeseries, "psd": R.fig_psd, "allan": R.fig_allan}[kind]
+    fn = {"timeseries": report_timeseries.fig_timeseries, "psd": report_spectra.fig_psd, "allan": report_spectra.fig_allan}[kind]
     fn(it, tmp_path / "f.png", plan=plan)
     fig = figs[-1]
     fig.canvas.draw()
@@ -176,7 +184,7 @@ def test_no_panel_has_more_than_eight_lines_and_legends_stay_outside_the_data(fi
 def test_the_zoom_holds_every_method_and_raw_gets_its_own_panel_when_it_dwarfs_them(figs,
                                                                                      tmp_path):
     it = _dwarfed_item()
-    R.fig_timeseries(it, tmp_path / "t.png", plan=_plan())
+    report_timeseries.fig_timeseries(it, tmp_path / "t.png", plan=_plan())
     fig = figs[-1]
     p = it.piece
     method_axes = [ax for ax in fig.axes
@@ -220,7 +228,7 @@ def test_a_wander_no_denoiser_removes_is_taken_out_of_every_curve(figs, tmp_path
     for i, lab in enumerate(["kalman", "wnn"] + SWEEP):
         outs[lab] = truth + wander + rng.standard_normal(n) * (20.0 + 5 * i) * DPH
     it = _item(outs, truth, fs)
-    R.fig_timeseries(it, tmp_path / "t.png", plan=_plan())
+    report_timeseries.fig_timeseries(it, tmp_path / "t.png", plan=_plan())
     fig = figs[-1]
     k = round(n / 50)
     trend = _slow_moving_mean(list((raw - truth) / DPH), k) - np.mean((raw - truth) / DPH)
@@ -239,7 +247,7 @@ def _claim(metric, run=None):
 
 
 def test_which_runs_are_scored_by_a_metric_blind_to_the_mean():
-    from fogbench.views import mean_blind
+    from fogbench.report.views import mean_blind
 
     plan = SimpleNamespace(claims=(_claim("std_dps", "r1"), _claim("rmse_dph", "r2")))
     assert mean_blind(plan, "r1") and not mean_blind(plan, "r2")
@@ -264,7 +272,7 @@ def test_under_a_std_claim_every_curve_is_drawn_less_its_own_mean(figs, tmp_path
     for i, lab in enumerate(["kalman", "wnn"]):
         outs[lab] = truth + wander + (40.0 * i) * DPH + rng.standard_normal(n) * 30.0 * DPH
     plan = SimpleNamespace(methods=_plan().methods, claims=(_claim("std_dps"),))
-    R.fig_timeseries(_item(outs, truth, fs), tmp_path / "t.png", plan=plan)
+    report_timeseries.fig_timeseries(_item(outs, truth, fs), tmp_path / "t.png", plan=plan)
     fig = figs[-1]
     k = round(n / 50)
     e_raw = list((raw - truth) / DPH)
@@ -281,7 +289,7 @@ def test_under_a_std_claim_every_curve_is_drawn_less_its_own_mean(figs, tmp_path
     # without the std claim (rmse: the mean counts), the means stay
     figs.clear()
     plan = SimpleNamespace(methods=_plan().methods, claims=(_claim("rmse_dph"),))
-    R.fig_timeseries(_item(outs, truth, fs), tmp_path / "t.png", plan=plan)
+    report_timeseries.fig_timeseries(_item(outs, truth, fs), tmp_path / "t.png", plan=plan)
     ln = [ln for ax in figs[-1].axes for ln in ax.get_lines() if ln.get_label() == "wnn"][-1]
     assert float(np.mean(ln.get_ydata())) == pytest.approx(200.0 + 40.0, abs=5.0)
 
@@ -301,7 +309,7 @@ def test_a_bias_the_methods_remove_under_the_trend_stays_visible(figs, tmp_path)
     outs = {"raw": raw, "oracle": raw - 2.0 * DPH}
     for i, lab in enumerate(["kalman", "wnn"]):
         outs[lab] = raw - 2.0 * DPH + rng.standard_normal(n) * 0.05 * DPH
-    R.fig_timeseries(_item(outs, truth, fs), tmp_path / "t.png", plan=_plan())
+    report_timeseries.fig_timeseries(_item(outs, truth, fs), tmp_path / "t.png", plan=_plan())
     fig = figs[-1]
     for lab in ("kalman", "wnn"):
         ln = next(ln for ax in fig.axes for ln in ax.get_lines() if ln.get_label() == lab)
@@ -323,7 +331,7 @@ def test_methods_that_do_not_differ_keep_raw_and_oracle_on_their_axis(figs, tmp_
     raw = truth + 2.3 * DPH + noise
     outs = {"raw": raw, "oracle": truth + noise, "kalman": raw - 2.0 * DPH,
             "wnn": raw - 2.0 * DPH}
-    R.fig_timeseries(_item(outs, truth, fs), tmp_path / "t.png", plan=_plan())
+    report_timeseries.fig_timeseries(_item(outs, truth, fs), tmp_path / "t.png", plan=_plan())
     ax = figs[-1].axes[-1]
     mean = {ln.get_label(): float(np.mean(ln.get_ydata())) for ln in ax.get_lines()}
     assert {"raw", "oracle", "kalman", "wnn"} <= set(mean), mean
@@ -344,7 +352,7 @@ def test_a_fast_noise_no_drift_model_removes_is_averaged_out(figs, tmp_path):
     for i, lab in enumerate(["kalman", "wnn"] + SWEEP):
         outs[lab] = truth + noise + 0.05 * (i + 1) * np.sin(np.arange(n) / 300.0) * DPH
     it = _item(outs, truth, fs)
-    R.fig_timeseries(it, tmp_path / "t.png", plan=_plan())
+    report_timeseries.fig_timeseries(it, tmp_path / "t.png", plan=_plan())
     k = round(n / 50)
     ln = next(ln for ax in figs[-1].axes for ln in ax.get_lines() if ln.get_label() == "wnn")
     np.testing.assert_allclose(ln.get_ydata(),
@@ -400,7 +408,7 @@ name = "wavelet_soft"
 
 
 def test_allan_and_psd_of_stitched_dwells_are_neither_written_nor_linked(tmp_path):
-    from fogbench.runner import run_scenario
+    from fogbench.run.runner import run_scenario
 
     path = tmp_path / "tiny.toml"
     path.write_text(TINY_POSITIONS)
@@ -430,8 +438,8 @@ def test_outputs_that_are_raw_plus_a_constant_get_raw_s_allan_and_psd_alone(tmp_
     keeps every curve (the stitched-dwells test above)."""
     from types import SimpleNamespace
 
-    from fogbench.runner import run_scenario
-    from fogbench.views import offsets_only
+    from fogbench.run.runner import run_scenario
+    from fogbench.report.views import offsets_only
 
     path = tmp_path / "tiny.toml"
     path.write_text(TINY_POSITIONS.replace('name = "wavelet_soft"',
@@ -469,7 +477,7 @@ def test_coefficient_bars_keep_their_colour_and_a_fit_with_none_identified_draws
     figure was all hatching, the legend key blue for gold bars (a key taken from no bar). Now:
     each method's key is its bars' colour whether or not any bar is identified, and a
     protocol where no fit identified any coefficient draws no figure (the report says why)."""
-    names = list(R.TERM_NAMES)
+    names = list(TERM_NAMES)
     true = {n: float(k + 1) for k, n in enumerate(names)}
 
     def rec(identified):
@@ -480,16 +488,16 @@ def test_coefficient_bars_keep_their_colour_and_a_fit_with_none_identified_draws
                            protocols=())
     res = SimpleNamespace(plan=plan, metrics={"protocols": {"p": {"runs": {"r1": {
         "a": rec(names[:3]), "b": rec([])}}}}})
-    assert R.fig_coefficients(res, "p", "x.png")
+    assert report_coefficients.fig_coefficients(res, "p", "x.png")
     ax = figs[-1].axes[0]
     keys = dict(zip(*reversed(ax.get_legend_handles_labels())))
     for lab in ("a", "b"):
-        want = R._color(lab, ["a", "b"], plan)
+        want = report_style._color(lab, ["a", "b"], plan)
         assert tuple(keys[lab].patches[0].get_facecolor()[:3]) == pytest.approx(want[:3]), lab
     res.metrics["protocols"]["p"]["runs"]["r1"]["a"] = rec([])
-    assert R.none_identified(res, "p")
+    assert report_coefficients.none_identified(res, "p")
     n = len(figs)
-    assert not R.fig_coefficients(res, "p", "x.png") and len(figs) == n
+    assert not report_coefficients.fig_coefficients(res, "p", "x.png") and len(figs) == n
 
 
 def test_thermal_png_shows_a_scored_run_not_the_fit_run():
@@ -497,11 +505,11 @@ def test_thermal_png_shows_a_scored_run_not_the_fit_run():
     data = {"fit": SimpleNamespace(run=SimpleNamespace(thermal=prog)),
             "test": SimpleNamespace(run=SimpleNamespace(thermal=prog))}
     res = SimpleNamespace(data=data, scored=[SimpleNamespace(protocol="p", run="test")])
-    assert R.thermal_run(res) == "test"
+    assert report_thermal.thermal_run(res) == "test"
     # a concatenated piece "x+test": the first of its runs that has a thermal program
     data["x"] = SimpleNamespace(run=SimpleNamespace(thermal=None))
     res.scored = [SimpleNamespace(protocol="p", run="x+test")]
-    assert R.thermal_run(res) == "test"
+    assert report_thermal.thermal_run(res) == "test"
 
 
 def test_replicate_distributions_show_a_sweep_once_and_wrap_panels_three_a_row(figs, tmp_path):
@@ -519,7 +527,7 @@ def test_replicate_distributions_show_a_sweep_once_and_wrap_panels_three_a_row(f
           "series": {p.name: {"rmse_dph": vals} for p in prots},
           "over_runs": {p.name: {lab: {"rmse_dph": {}} for lab in labels} for p in prots}}
     res = SimpleNamespace(plan=plan)
-    assert R.fig_replicates(res, mc, tmp_path / "r.png")
+    assert report_montecarlo.fig_replicates(res, mc, tmp_path / "r.png")
     fig = figs[-1]
     shown = [ax for ax in fig.axes if ax.get_visible()]
     assert len(shown) == 4
@@ -555,7 +563,7 @@ def test_methods_whose_errors_dwarf_the_others_get_their_own_panel(figs, tmp_pat
     outs["wnn"] = truth + rng.standard_normal(n) * 200.0 * DPH
     plan = SimpleNamespace(methods=(_spec("kalman", "kalman"), _spec("kalman_rts", "kalman"),
                                     _spec("wnn", "wnn")))
-    R.fig_timeseries(_item(outs, truth, fs), tmp_path / "t.png", plan=plan)
+    report_timeseries.fig_timeseries(_item(outs, truth, fs), tmp_path / "t.png", plan=plan)
     fig = figs[-1]
 
     def panel_of(lab):
@@ -579,7 +587,7 @@ def test_ideal_twins_sit_under_their_lab_protocols(figs, tmp_path):
     plan.claims = []
     mc = {"replicates": 20, "series": {n: {"rmse_dph": vals} for n, _ in names},
           "over_runs": {n: {lab: {"rmse_dph": {}} for lab in vals} for n, _ in names}}
-    assert R.fig_replicates(SimpleNamespace(plan=plan), mc, tmp_path / "r.png")
+    assert report_montecarlo.fig_replicates(SimpleNamespace(plan=plan), mc, tmp_path / "r.png")
     fig = figs[-1]
     pos = {ax.get_title().split(":")[0]: ax.get_position() for ax in fig.axes
            if ax.get_visible()}
@@ -594,7 +602,7 @@ def test_a_static_record_has_no_rate_panel_and_its_title_gives_the_true_rate(fig
     (true rate within 0.01 deg/h) starts with the errors, its title giving the true rate; a
     piece whose rate moves keeps its rate panel."""
     it = _dwarfed_item()
-    R.fig_timeseries(it, tmp_path / "t.png", plan=_plan())
+    report_timeseries.fig_timeseries(it, tmp_path / "t.png", plan=_plan())
     fig = figs[-1]
     assert not any("rate" in ax.get_ylabel() for ax in fig.axes)
     assert "static record (true rate 2063 deg/h" in fig.axes[0].get_title()
@@ -603,7 +611,7 @@ def test_a_static_record_has_no_rate_panel_and_its_title_gives_the_true_rate(fig
     n = it.piece.t.size
     step = np.where(np.arange(n) < n // 2, 0.0, 10.0) * DPS_     # a 10 deg/s rate step
     outs = {lab: y + step for lab, y in it.outputs.items()}
-    R.fig_timeseries(_item(outs, it.piece.truth + step, it.piece.fs), tmp_path / "t.png",
+    report_timeseries.fig_timeseries(_item(outs, it.piece.truth + step, it.piece.fs), tmp_path / "t.png",
                      plan=_plan())
     assert figs[-1].axes[0].get_ylabel() == "rate, deg/s"
 
@@ -621,7 +629,7 @@ def test_protocols_on_one_metric_share_the_y_range(figs, tmp_path):
                                     for lab in labels}} for i, p in enumerate(prots)}
     mc = {"replicates": 20, "series": series,
           "over_runs": {p.name: {lab: {"rmse_dph": {}} for lab in labels} for p in prots}}
-    assert R.fig_replicates(SimpleNamespace(plan=plan), mc, tmp_path / "r.png")
+    assert report_montecarlo.fig_replicates(SimpleNamespace(plan=plan), mc, tmp_path / "r.png")
     shown = [ax for ax in figs[-1].axes if ax.get_visible()]
     assert len(shown) == 2 and shown[0].get_ylim() == shown[1].get_ylim()
     lo, hi = shown[0].get_ylim()
@@ -654,7 +662,7 @@ def test_the_key_metric_run_by_run_is_drawn_with_its_interval(figs, tmp_path):
     summary["every"]["power_on_3"]["oracle_filter"] = sm(0.5)
     mc = {"replicates": 20, "summary": summary,
           "over_runs": {p.name: {"raw": {"drift_rms_dph": {}}} for p in prots}}
-    assert R.fig_runs(SimpleNamespace(plan=plan), mc, tmp_path / "runs.png")
+    assert report_montecarlo.fig_runs(SimpleNamespace(plan=plan), mc, tmp_path / "runs.png")
     fig = figs[-1]
     assert len(fig.axes) == 2                     # the twin and the one-run protocol left out
     for ax, name in zip(fig.axes, ("once", "every")):

@@ -10,8 +10,9 @@ import numpy as np
 import pytest
 
 from fogcomp.base import Compensator, DivergenceError, register
-from fogbench.scenario import RUNNER_SECTIONS, ScenarioError, load_plan, load_scenario
-from fogbench.suite import run_suite
+from fogbench.scenario.load import RUNNER_SECTIONS
+from fogbench.scenario import ScenarioError, load_plan, load_scenario
+from fogbench.run.suite import run_suite
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -169,7 +170,7 @@ def test_loader_refuses_unknown_methods_params_and_bad_bounds(tmp_path):
 def test_run_writes_metrics_report_and_figures_from_a_clean_directory(tmp_path):
     p = scenario(tmp_path, method3="test_always_diverges", label3="diverges")
     out = tmp_path / "clean" / "run"
-    r = subprocess.run([sys.executable, "-m", "fogbench.cli", "run", str(p), "--out", str(out),
+    r = subprocess.run([sys.executable, "-m", "fogbench", "run", str(p), "--out", str(out),
                         "--no-recording", "--quiet"], capture_output=True, text=True, cwd=ROOT,
                        env={**__import__("os").environ,
                             "PYTHONPATH": f"{ROOT}:{Path(__file__).parent}"})
@@ -178,7 +179,7 @@ def test_run_writes_metrics_report_and_figures_from_a_clean_directory(tmp_path):
     assert r.returncode == 2 and "unknown method 'test_always_diverges'" in r.stderr
     assert not out.exists()
     from fogbench.report import write_run_dir
-    from fogbench.runner import run_scenario
+    from fogbench.run.runner import run_scenario
 
     res = run_scenario(p)
     write_run_dir(res, out, recording=False)
@@ -203,7 +204,7 @@ def test_run_writes_metrics_report_and_figures_from_a_clean_directory(tmp_path):
 
 
 def test_scored_samples_are_never_the_fitted_ones(tmp_path):
-    from fogbench.runner import run_scenario
+    from fogbench.run.runner import run_scenario
 
     res = run_scenario(scenario(tmp_path))
     (item,) = res.scored
@@ -252,7 +253,7 @@ def _suite_holds_its_bounds(out, only_ci: bool):
                    if not only_ci or d.get("compensation", {}).get("ci"))
     assert names, "no scenario files in scenarios/"
     # the claim maps' points are left out here (tests/test_maps.py runs maps)
-    r = subprocess.run([sys.executable, "-m", "fogbench.cli", "suite", "--replicates", "2",
+    r = subprocess.run([sys.executable, "-m", "fogbench", "suite", "--replicates", "2",
                         "--check", "--no-recording", "--no-figures", "--no-map", "--quiet",
                         "--out", str(out)]
                        + (["--ci"] if only_ci else []),
@@ -284,7 +285,7 @@ def test_every_bundled_scenario_holds_its_bounds_over_two_replicates(tmp_path):
 
 def test_claim_verdicts_state_agreement_with_the_numbers():
     from fogbench.scenario import Claim, Plan
-    from fogbench.suite import claim_verdicts
+    from fogbench.run.suite import claim_verdicts
 
     doc = {"protocols": {"p": {"in_sample": False, "runs": {
         "r1": {"raw": {"x_dph": 1.0}, "m": {"x_dph": 0.25}},

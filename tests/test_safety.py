@@ -17,8 +17,9 @@ import pytest
 
 from fogbench.cli import main
 from helpers import SMALL_SCENARIO as SCENARIO, run_cli
-from fogbench.outdir import MARKER
-from fogbench.scenario import ScenarioError, load_plan, load_scenario, RUNNER_SECTIONS
+from fogbench.outputs.folders import MARKER
+from fogbench.scenario import ScenarioError, load_plan, load_scenario
+from fogbench.scenario.load import RUNNER_SECTIONS
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -288,7 +289,7 @@ def _signal_suite(cwd, sig, ready, *, wait_s, after_s, timeout_s, hung):
     far)`` (at most ``wait_s``), then ``after_s`` more, and signal it: SIGINT to the whole
     process group (as Ctrl-C does), SIGTERM to the main process. Returns (exit status, stderr
     before the signal, stderr after); fails the test if it does not end within ``timeout_s``."""
-    proc = subprocess.Popen([sys.executable, "-m", "fogbench.cli", "suite", "--scenarios", "scn",
+    proc = subprocess.Popen([sys.executable, "-m", "fogbench", "suite", "--scenarios", "scn",
                              "--out", "rep", "--jobs", "2", "--no-recording"], cwd=cwd,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             start_new_session=True)

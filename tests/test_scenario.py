@@ -58,7 +58,8 @@ def test_good_scenario_loads_in_si(tmp_path):
 
 @pytest.mark.parametrize("path", sorted((ROOT / "scenarios").glob("*.toml")), ids=lambda p: p.name)
 def test_bundled_scenarios_load(path):
-    from fogbench.scenario import RUNNER_SECTIONS, load_plan
+    from fogbench.scenario.load import RUNNER_SECTIONS
+    from fogbench.scenario import load_plan
 
     sc = load_scenario(path, extra_sections=RUNNER_SECTIONS)
     load_plan(sc)
@@ -127,7 +128,7 @@ def test_missing_file_is_a_clear_error(tmp_path):
 
 
 def run_cli(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "fogbench.cli", *args], capture_output=True,
+    return subprocess.run([sys.executable, "-m", "fogbench", *args], capture_output=True,
                           text=True, cwd=cwd or ROOT)
 
 

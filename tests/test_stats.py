@@ -1,4 +1,4 @@
-"""fogbench.stats against analytic results, scipy's own tests and slow obvious loops."""
+"""fogbench.run.stats against analytic results, scipy's own tests and slow obvious loops."""
 
 import itertools
 import math
@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import stats as sst
 
-from fogbench.stats import (claim_verdict, mean_ci, ordering_probabilities, ordering_probability,
+from fogbench.run.stats import (claim_verdict, mean_ci, ordering_probabilities, ordering_probability,
                             paired_difference, summarize)
 
 

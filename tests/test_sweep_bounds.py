@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from fogbench.scenario import RUNNER_SECTIONS, ScenarioError, load_plan, load_scenario
-from fogbench.suite import check_bounds
+from fogbench.scenario.load import RUNNER_SECTIONS
+from fogbench.scenario import ScenarioError, load_plan, load_scenario
+from fogbench.run.suite import check_bounds
 
 BASE = """
 [scenario]

@@ -53,7 +53,7 @@ def test_the_recording_loads_in_the_web_viewer_without_errors_on_every_tab(shots
     from test_recording import TINY
 
     from fogbench.recording import write_recording
-    from fogbench.runner import run_scenario
+    from fogbench.run.runner import run_scenario
 
     (tmp_path / "tiny.toml").write_text(TINY)
     res = run_scenario(tmp_path / "tiny.toml")
@@ -93,7 +93,8 @@ PALE = 25                       # the same for the temperatures' tinted traces: 
 
 
 def _quick_scenarios() -> list[Path]:
-    from fogbench.scenario import RUNNER_SECTIONS, load_scenario
+    from fogbench.scenario.load import RUNNER_SECTIONS
+    from fogbench.scenario import load_scenario
 
     out = []
     for f in sorted((ROOT / "scenarios").glob("*.toml")):
@@ -129,7 +130,7 @@ def test_the_first_view_of_each_quick_scenario_shows_the_whole_run_and_is_not_em
     import numpy as np
 
     from fogbench.recording import write_recording
-    from fogbench.runner import run_scenario
+    from fogbench.run.runner import run_scenario
 
     res = run_scenario(ROOT / "scenarios" / f"{scenario}.toml")
     rrd = tmp_path / "recording.rrd"

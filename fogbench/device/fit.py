@@ -1,0 +1,389 @@
+"""What a fit over a gyro's logs determines (:func:`fit_device`): the noise terms, the bias and
+its switch-on repeatability from static logs or an Allan curve, the temperature terms from a
+thermal log, the g terms and scale factor from a multi-position log."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from fogbench.device.file import _NEEDS, DeviceFit, Entry
+from fogcomp.units import ARCSEC, DEG_RT_H, DPH, DPH_PER_H, DPH_RT_H, DPS
+
+__all__ = ["fit_device"]
+
+BAND_HIGH_HZ = 1.0                         # top of the flicker band a fit writes (below)
+
+# identifier term -> (device key, factor from SI, how the value is stated)
+_NOISE_KEYS = {
+    "N": ("arw_deg_rt_h", DEG_RT_H),
+    "B": ("bias_instability_dph", DPH),
+    "K": ("rrw_dph_rt_h", DPH_RT_H),
+    "Q": ("quantization_arcsec", ARCSEC / math.sqrt(12.0)),   # step q = sqrt(12) Q
+    "R": ("rate_ramp_dph_per_h", DPH_PER_H),
+}
+
+
+@dataclass(frozen=True)
+class StaticLog:
+    """One static record of one gyro axis: rate (rad/s), sample rate (Hz), gap-free pieces."""
+
+    name: str
+    rate: np.ndarray
+    fs: float
+    segments: tuple = ()
+    column: str = ""
+
+
+def earth_projection(latitude_deg: float, input_axis: str, heading_deg: float = 0.0) -> float:
+    """The Earth rate along a gyro's input axis at rest, rad/s: +-Omega sin(latitude) for an
+    axis pointing up or down, Omega cos(latitude) cos(heading) for a level axis at a heading from
+    north (Titterton & Weston 2004, eq. 3.72)."""
+    from sim.earth import earth_rate_world
+
+    # the rig's own Earth rate, in a level frame whose x points along the heading, z up
+    w = earth_rate_world(math.radians(latitude_deg), math.radians(heading_deg))
+    return float({"up": w[2], "down": -w[2]}.get(input_axis, w[0]))
+
+
+def fit_device(static: list, curve=None, earth_rate: float | None = None,
+               ci: float | None = None, min_tau: float | None = None,
+               thermal=None, multipos=None, full_scale: float | None = None) -> DeviceFit:
+    """A device file's keys from static logs and/or an Allan curve.
+
+    Parameters
+    ----------
+    static : list of StaticLog
+        Static records of separate power-ons of one gyro axis (may be empty).
+    curve : tuple (name, taus, avar, fs, n_samples), optional
+        An Allan curve (s, rad^2/s^2) and its record's sample rate and length; its noise terms
+        are used instead of the static logs'.
+    earth_rate : float, optional
+        The Earth rate's projection on the input axis during the static logs, rad/s (None: the
+        bias is stated uncorrected).
+    ci : float, optional
+        Probability content of the intervals (default one sigma, 0.683).
+    min_tau : float, optional
+        Shortest averaging time the noise terms are fitted on, s (default: every octave from
+        one sample): leaves out the averaging times a sensor's own low-pass filter shapes.
+    thermal : fogbench.device.thermal.ThermalLog, optional
+        A record at a constant rate through a temperature program: the temperature terms and
+        the coil's lag (:func:`fogbench.device.thermal.fit_thermal`, weighted by the noise
+        model the static logs or the curve gave; one of them is needed).
+    multipos : fogbench.device.multipos.MultiposLog, optional
+        A multi-position, centrifuge or rate-table record with its specific force and reference
+        rate: the g and g^2 terms and the scale factor
+        (:func:`fogbench.device.multipos.fit_multipos`, weighted as the thermal fit).
+    full_scale : float, optional
+        The gyro's full scale, rad/s (a datasheet's): with it the multi-position fit states the
+        scale factor's non-linearity at full scale (``sf_nonlinearity_ppm``).
+    """
+    from fogcomp.allan import ONE_SIGMA_CI
+
+    ci = ONE_SIGMA_CI if ci is None else ci
+    fit = DeviceFit(ci=ci)
+    model, models, origin = _noise_model(fit, static, curve, ci, min_tau)
+    if model is not None:
+        _noise_entries(fit, model, origin, curve[3] if curve is not None else static[0].fs)
+    if static:
+        _bias_entries(fit, static, models[max(static, key=lambda s: s.rate.size).name],
+                      earth_rate, ci)
+    if thermal is not None:
+        if model is None:
+            raise ValueError("--thermal: the fit weighs the thermal log by the noise model of "
+                             "a static log or an Allan curve; give --static or --curve too")
+        _thermal_entries(fit, thermal, ci, bias_given=bool(static), model=model)
+    if multipos is not None:
+        if model is None:
+            raise ValueError("--multipos: the fit weighs the log by the noise model of a static "
+                             "log or an Allan curve; give --static or --curve too")
+        _multipos_entries(fit, multipos, ci, model, full_scale)
+    for key, (_, why) in _NEEDS.items():
+        if fit.entry(key) is None and key not in fit.undetermined:
+            fit.undetermined[key] = "needs " + why
+    for key in _all_fog_keys():
+        if fit.entry(key) is None and key not in fit.undetermined:
+            fit.undetermined[key] = "not measured by these logs"
+    return fit
+
+
+def _noise_model(fit: DeviceFit, static: list, curve, ci: float, min_tau):
+    """(the noise model the file's terms come from, the static logs' models by name, where it
+    comes from): the curve's, else the longest static log's."""
+    from fogcomp.allan import allan_analysis
+    from fogcomp.noise import identify_noise_model
+
+    model, origin = None, None
+    if curve is not None:
+        name, taus, avar, fs, n = curve
+        keep = np.ones(len(taus), bool) if min_tau is None else np.asarray(taus) >= min_tau
+        if keep.sum() < 3:
+            raise ValueError(f"--min-tau-s {min_tau:g}: leaves {int(keep.sum())} averaging "
+                             "times of the curve; at least 3 are needed")
+        model = identify_noise_model(np.asarray(taus)[keep], np.asarray(avar)[keep], fs, n,
+                                     ci=ci)
+        origin = f"the Allan curve {name}"
+        fit.inputs.append(f"Allan curve {name} ({n} samples at {fs:g} Hz)")
+    models = {}
+    for log in static:
+        col = f", column {log.column}" if log.column else ""
+        fit.inputs.append(f"static log {log.name} ({log.rate.size} samples at {log.fs:g} Hz"
+                          f"{col})")
+    if static:
+        longest = max(static, key=lambda s: s.rate.size)
+        _, models[longest.name] = allan_analysis(
+            longest.rate, longest.fs, _octaves(longest, min_tau), ci=ci,
+            segments=list(longest.segments) or None)
+        if model is None:
+            model, origin = models[longest.name], f"the static log {longest.name}"
+    return model, models, origin
+
+
+def _bias_entries(fit: DeviceFit, static: list, ref, earth_rate, ci: float) -> None:
+    """The bias (each log's mean rate less the Earth rate's projection) and, with two or more
+    power-ons, its switch-on repeatability (their spread less what each mean's own noise
+    explains: ``ref``'s Allan deviation at the record's length)."""
+    from scipy.stats import chi2, t as student_t
+
+    biases, sig = [], []
+    for log in static:
+        b = float(np.mean(log.rate)) - (earth_rate or 0.0)
+        # the spread of a mean over the record: the model's Allan deviation at its length
+        # (exact for white noise; the usual stand-in for the slower terms)
+        T = log.rate.size / log.fs
+        biases.append(b)
+        sig.append(float(ref.model_adev(np.array([T]))[0]))
+    corr = (f"less the Earth rate's projection on the input axis "
+            f"({earth_rate / DPH:.6g} deg/h)") if earth_rate is not None else \
+        "NOT corrected for the Earth rate (give --latitude-deg and --input-axis)"
+    k = len(biases)
+    b = np.array(biases) / DPH
+    s_in = np.array(sig) / DPH
+    if k == 1:
+        fit.entries.append(Entry("bias_dph", float(b[0]), float(b[0] - s_in[0] * _z(ci)),
+                                 float(b[0] + s_in[0] * _z(ci)),
+                                 f"mean rate of {static[0].name} {corr}; interval from the "
+                                 "noise model's Allan deviation at the record's length"))
+        fit.undetermined["switch_on_bias_dph"] = (
+            "one power-on: the switch-on repeatability needs static logs of two or more "
+            "separate power-ons")
+        return
+    mean, sd = float(b.mean()), float(b.std(ddof=1))
+    h = float(student_t.ppf(0.5 + ci / 2, k - 1)) * sd / math.sqrt(k)
+    fit.entries.append(Entry("bias_dph", mean, mean - h, mean + h,
+                             f"mean of the {k} logs' mean rates {corr}; t-interval over "
+                             "the power-ons"))
+    # the spread of the k means, less the part their own noise explains
+    excess = max(sd**2 - float(np.mean(s_in**2)), 0.0)
+    lo_q, hi_q = chi2.ppf(0.5 + ci / 2, k - 1), chi2.ppf(0.5 - ci / 2, k - 1)
+    lo = math.sqrt(max((k - 1) * sd**2 / lo_q - float(np.mean(s_in**2)), 0.0))
+    hi = math.sqrt(max((k - 1) * sd**2 / hi_q - float(np.mean(s_in**2)), 0.0))
+    fit.entries.append(Entry("switch_on_bias_dph", math.sqrt(excess), lo, hi,
+                             f"spread (sample standard deviation) of the {k} power-ons' "
+                             "biases less their own noise; chi-square interval on "
+                             f"{k - 1} degrees of freedom"))
+    if k < 5:
+        fit.notes.append(f"{k} power-ons bound the switch-on repeatability poorly: "
+                         f"{math.sqrt(excess):.3g} deg/h, interval [{lo:.3g}, {hi:.3g}] "
+                         "deg/h; log more power-ons")
+
+
+def _thermal_noise(model, fs: float):
+    """FogParams of the noise a thermal fit weighs by: the identified terms at their values
+    and the terms the record only bounds at their 95 % upper bounds (a rate random walk a
+    short static log cannot show still wanders through a long thermal run: leaving it out
+    would make the temperature terms' intervals far too narrow)."""
+    from sim.fog import FogParams
+
+    def val(term):
+        t = model.term(term)
+        if t.status == "identified":
+            return t.value
+        return t.bound if t.status == "upper bound" and t.bound is not None else 0.0
+
+    kw = dict(arw=val("N"), bias_instability=val("B"), rrw=val("K"),
+              quantization=val("Q") * math.sqrt(12.0), bi_band=(1e-6, min(BAND_HIGH_HZ, fs / 2)))
+    gms = sorted((t for t in model.gm_terms if t.status == "identified"), key=lambda t: -t.value)
+    if gms:
+        kw.update(gm_drift=gms[0].value, gm_time_constant=gms[0].tau)
+    return FogParams(**kw)
+
+
+def _thermal_entries(fit: DeviceFit, log, ci: float, bias_given: bool, model) -> None:
+    from fogbench.device.thermal import KEYS, RATE_WINDOW_S, T_REF_C, fit_thermal
+
+    col = f", column {log.column}" if log.column else ""
+    fit.inputs.append(f"thermal log {log.name} ({log.rate.size} samples at {log.fs:g} Hz"
+                      f"{col}; {np.min(log.temp):.3g} to {np.max(log.temp):.3g} deg C)")
+    noise = _thermal_noise(model, log.fs)
+    th = fit_thermal(log, noise, ci)
+    tau, lo, hi, bounded = th["lag"]
+    lo95, hi95, bounded95 = th["lag95"]
+    how = (f"generalised least squares on {th['block_s']:g} s means of {log.name} (bias + T + T^2 + "
+           "dT/dt + T dT/dt of the coil), weighted by the fitted noise model (terms the "
+           "record only bounds at their 95 % bounds); interval the union over the coil lags "
+           f"the residual allows, both at (1 + {ci:.3g}) / 2 so that they hold together at "
+           f"{ci:.3g} at least")
+    fit.entries.append(Entry("temp_ref_c", T_REF_C, None, None,
+                             "chosen: the temperature terms' reference"))
+    for key, _ in KEYS:
+        v, a, b = th[key]
+        fit.entries.append(Entry(key, v, a, b, how))
+    if bias_given:
+        v, a, b = th["bias_at_ref_dph"]
+        fit.notes.append(f"bias_dph is the static logs' mean at their own (unlogged) "
+                         f"temperature; the temperature terms refer to {T_REF_C:g} deg C, where "
+                         f"the thermal fit's constant is {v:.4g} [{a:.4g}, {b:.4g}] deg/h (its "
+                         "rate, the Earth rate included)")
+    else:
+        v, a, b = th["bias_at_ref_dph"]
+        fit.entries.append(Entry("bias_dph", v, a, b, f"the thermal fit's constant at "
+                                 f"{T_REF_C:g} deg C ({log.name}; its rate, Earth rate "
+                                 "included, is taken as the reference)"))
+    if lo95 == 0.0 and hi95 <= RATE_WINDOW_S:
+        fit.entries.append(Entry("temp_sensor_location", "coil", None, None,
+                                 f"the residual of {log.name} rejects (at 95 %) every lag "
+                                 f"between sensor and coil beyond {hi95:.3g} s (no lag the "
+                                 "record can tell from none)"))
+        fit.undetermined["coil_time_constant_s"] = (
+            "the sensor reads the coil: its lag behind the chamber does not enter the terms")
+    elif bounded95 and lo95 > 0.0:
+        fit.entries.append(Entry("temp_sensor_location", "housing", None, None,
+                                 f"the coil lags the sensor in {log.name} (no lag rejected at "
+                                 "95 %; the lag below)"))
+        fit.entries.append(Entry("coil_time_constant_s", tau, lo, hi,
+                                 "the coil's first-order lag behind the sensor with the "
+                                 "smallest generalised residual; chi-square profile interval"))
+        fit.undetermined["housing_time_constant_s"] = (
+            "the housing's lag behind the chamber: the log holds no chamber temperature")
+    else:
+        fit.undetermined["coil_time_constant_s"] = (
+            f"{log.name} does not tell where the sensor is (the coil's lag behind it: best "
+            f"{tau:.3g} s, {lo:.3g} to {hi:.3g} s in the {ci:.0%} profile, {lo95:.3g} to "
+            f"{hi95:.3g} s at 95 %); the temperature terms' intervals cover every lag of the "
+            f"{(1 + ci) / 2:.0%} profile")
+    fit.notes.append(f"thermal fit of {log.name}: generalised residual chi-square per degree "
+                     f"of freedom {th['chi2_per_dof']:.3g} (about 1 when the noise model and "
+                     "the temperature model explain the record)")
+
+
+def _multipos_entries(fit: DeviceFit, log, ci: float, model, full_scale) -> None:
+    from fogbench.device.multipos import TERMS, fit_multipos
+
+    col = f", column {log.column}" if log.column else ""
+    fit.inputs.append(f"multi-position log {log.name} ({log.rate.size} samples at {log.fs:g} Hz"
+                      f"{col})")
+    res = fit_multipos(log, _thermal_noise(model, log.fs), ci, full_scale)
+    how = (f"generalised least squares on {res['block_s']:g} s means of {log.name} (rate less "
+           "the reference = constant + g terms of paper 004 eq. 8 + scale factor + "
+           "non-linearity), weighted by the fitted noise model (terms the record only bounds "
+           "at their 95 % bounds)")
+    missing = [name for name, _ in TERMS if res[name] is None]
+    vectors: dict = {}
+    for name, target in TERMS:
+        if target is None:
+            continue
+        key, idx = target
+        v = res[name]
+        if idx is None:                               # a scalar key
+            if v is None:
+                fit.undetermined[key] = f"not identifiable from {log.name} (its design)"
+            elif key == "sf_nonlinearity_ppm" and full_scale is None:
+                fit.undetermined[key] = ("fitted but not stated: give --full-scale-dps (the "
+                                         "non-linearity is stated at full scale)")
+            else:
+                fit.entries.append(Entry(key, v[0] * 1e6, v[1] * 1e6, v[2] * 1e6, how))
+                if key == "sf_nonlinearity_ppm":
+                    fit.entries.append(Entry("full_scale_dps", full_scale / DPS, None, None,
+                                             "given (--full-scale-dps): the full scale the "
+                                             "non-linearity is stated at"))
+            continue
+        n = 3 if key == "g_sens_dph_per_g" else 6
+        vec = vectors.setdefault(key, ([0.0] * n, [None] * n, [None] * n, []))
+        if v is None:
+            vec[3].append(name)
+        else:
+            vec[0][idx], vec[1][idx], vec[2][idx] = (x / DPH for x in v)
+    for key, (val, lo, hi, undetermined) in vectors.items():
+        if len(undetermined) == len(val):
+            fit.undetermined[key] = f"not identifiable from {log.name} (its design)"
+            continue
+        src = how + "; components in the log's body axes (acc_x, acc_y, acc_z)"
+        if undetermined:
+            src += (f"; {', '.join(undetermined)} not identifiable from this log's attitudes "
+                    "(written 0)")
+        fit.entries.append(Entry(key, val, lo, hi, src))
+    if missing:
+        fit.notes.append(f"{log.name}: not identifiable from its attitudes and rates: "
+                         f"{', '.join(missing)} (fx^2 + fy^2 + fz^2 = 1 g^2 in every static "
+                         "position: the squares and the constant separate only on a "
+                         "centrifuge; the cross terms need positions between the axes)")
+    if res["constant"] is not None:
+        v, a, b = (x / DPH for x in res["constant"])
+        fit.notes.append(f"the multi-position fit's constant (the bias in that power-on, with "
+                         f"what of the Earth rate the reference leaves out): {v:.4g} "
+                         f"[{a:.4g}, {b:.4g}] deg/h")
+    fit.notes.append(f"multi-position fit of {log.name}: generalised residual chi-square per "
+                     f"degree of freedom {res['chi2_per_dof']:.3g} over {res['blocks']} "
+                     "means (about 1 when the noise model and the g model explain the record)")
+
+
+def _all_fog_keys() -> list:
+    """Every key of a [fog] table a device file may hold (the scenario's validation)."""
+    from fogbench.scenario.device_file import fog_json_schema
+
+    return [k for k in fog_json_schema()["properties"] if k != "source"]
+
+
+def _octaves(log: StaticLog, min_tau: float | None):
+    """Octave averaging times of a log from ``min_tau`` on (None: the default, every octave)."""
+    if min_tau is None:
+        return None
+    n = max(b - a for a, b in log.segments) if log.segments else log.rate.size
+    m = 2 ** np.arange(int(math.floor(math.log2(max((n - 1) // 2, 1)))) + 1)
+    t = m / log.fs
+    t = t[t >= min_tau * (1 - 1e-9)]
+    if t.size < 3:
+        raise ValueError(f"--min-tau-s {min_tau:g}: leaves {t.size} octave averaging times of "
+                         f"{log.name}; at least 3 are needed")
+    return t
+
+
+def _z(ci: float) -> float:
+    from scipy.stats import norm
+
+    return float(norm.ppf(0.5 + ci / 2))
+
+
+def _noise_entries(fit: DeviceFit, model, origin: str, fs: float) -> None:
+    for term, (key, unit) in _NOISE_KEYS.items():
+        t = model.term(term)
+        if t.status == "identified":
+            fit.entries.append(Entry(key, t.value / unit, t.low / unit, t.high / unit,
+                                     f"{t.name} of {origin} (fogcomp.noise, {t.reason})"))
+            if term == "B":
+                top = min(BAND_HIGH_HZ, fs / 2)
+                fit.entries.append(Entry(
+                    "bias_instability_band_hz", [1e-6, top], None, None,
+                    f"chosen: the flicker spread over 1e-6 to {top:g} Hz, flat over every "
+                    "averaging time the record shows"))
+            if term == "R":
+                fit.notes.append("rate_ramp_dph_per_h: the Allan variance holds R^2; its sign "
+                                 "is not known from the curve (positive written)")
+        elif t.status == "upper bound" and t.bound is not None:
+            fit.undetermined[key] = (f"not identified in {origin}: at most "
+                                     f"{t.bound / unit:.3g} (95 % upper bound)")
+    gms = sorted((t for t in model.gm_terms if t.status == "identified"),
+                 key=lambda t: -t.value)
+    if gms:
+        g = gms[0]
+        fit.entries.append(Entry("gm_drift_dps", g.value / DPS, g.low / DPS, g.high / DPS,
+                                 f"the strongest Gauss-Markov term of {origin}"))
+        fit.entries.append(Entry("gm_time_constant_s", g.tau, g.tau_low, g.tau_high,
+                                 "its correlation time"))
+        for other in gms[1:]:
+            fit.notes.append(f"{origin} shows a further Gauss-Markov term ({other.value / DPH:.3g} "
+                             f"deg/h, {other.tau:.3g} s); the error model holds one, so it is "
+                             "left out of this file")

@@ -1,0 +1,472 @@
+"""A log's table validated, whatever its format: the channels its column names (or ``--column``)
+give, their units (SI inside), magnitudes no sensor measures, the time column (increasing,
+regular, gaps refused or split) and the sample rate. Each error (a :class:`LogError`) names the
+file, the row in the file's own terms (:class:`~fogbench.formats.detect.Rows`) and the column.
+
+A CSV log's header names carry their units, as the project's own keys do: ``time_s``,
+``gyro_x_dps`` / ``_rps`` / ``_dph``, ``acc_x_g`` / ``_mps2`` (``accel_`` is read as ``acc_``),
+``temp_c``; ``_au`` marks raw sensor counts (only a calibration such as ``ferraris`` turns them
+into physical units). Files with other headers are mapped with ``--column gyro_z=GyroZ:dps``. The
+sample rate comes from the time column or from ``--fs``.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from fogcomp.units import G0
+
+from fogbench.formats.detect import Rows
+from fogbench.formats.csvfile import read_frame
+from fogbench.formats.errors import LogError, PlausibilityWarning
+from fogbench.formats.euroc import bracketed_column
+
+__all__ = ["Log", "read_log", "GYRO_UNITS", "ACC_UNITS", "TIME_UNITS", "MIN_RECORD_SAMPLES",
+           "fmt_number", "numeric"]
+
+DEG = math.pi / 180.0
+
+#: Gyro unit suffixes and their factor to rad/s (None: raw counts, no physical unit).
+GYRO_UNITS = {"dps": DEG, "deg_s": DEG, "rps": 1.0, "rad_s": 1.0, "dph": DEG / 3600.0,
+              "au": None}
+#: Accelerometer unit suffixes and their factor to m/s^2.
+ACC_UNITS = {"g": G0, "mps2": 1.0, "au": None}
+TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
+TEMP_UNITS = {"c": 1.0}
+_KINDS = {"gyro": GYRO_UNITS, "acc": ACC_UNITS}
+_HEADER = re.compile(r"^(gyro|acc|accel)_([xyz])(?:_(.*))?$")
+
+#: Fewest samples (in the longest gap-free piece) that ``allan`` and ``calibrate`` with a fitted
+#: method accept: 64 samples give the overlapping Allan deviation 5 octave averaging times
+#: (1, 2, 4, 8, 16 samples; the longest usable is (n - 1) // 2), the fewest from which the noise
+#: terms' slopes can be told apart.
+MIN_RECORD_SAMPLES = 64
+
+#: Largest magnitude a channel in a physical unit may reach, SI: (warn beyond, refuse beyond).
+#: Rates: the widest-range gyros (projectile IMUs) measure about 20,000 deg/s; 10^6 deg/s (2,800
+#: revolutions per second) is no measurement at all. Specific force: IMU accelerometers reach
+#: 200 g, shock sensors 10^5 g. Temperatures: below absolute zero is refused, beyond 500 C
+#: (past any FOG's survival range) warned.
+MAGNITUDE_LIMITS = {"gyro": (2.0e4 * DEG, 1.0e6 * DEG), "acc": (2.0e3 * G0, 1.0e6 * G0)}
+#: Sample rates of gyro logs, Hz: beyond this a time column's unit is suspect (warned).
+PLAUSIBLE_FS_HZ = (0.01, 50_000.0)
+_DISPLAY = {"gyro": (1.0 / DEG, "deg/s"), "acc": (1.0 / G0, "g")}
+
+
+def _check_magnitude(path, ch: str, column: str, unit: str, v: np.ndarray,
+                     first_line: Rows) -> None:
+    """Refuse values no sensor measures in the unit the column names; warn of implausible
+    ones (a unit contradicted by the values: deg/s under _rps reads 57 times too large)."""
+    kind = ch.split("_")[0]
+    if kind == "temp":
+        i = int(np.argmin(v))
+        if v[i] < -273.15:
+            raise LogError(f"{path}: {first_line(i)}, column {column!r}: "
+                           f"{fmt_number(v[i])} C is below absolute zero")
+        if float(np.max(v)) > 500.0:
+            warnings.warn(PlausibilityWarning(
+                f"{path}: column {column!r} reaches {float(np.max(v)):.4g} C, beyond any "
+                "FOG's survival range: is it a temperature in deg C?"))
+        return
+    warn, refuse = MAGNITUDE_LIMITS[kind]
+    scale, shown = _DISPLAY[kind]
+    i = int(np.argmax(np.abs(v)))
+    peak = abs(float(v[i]))
+    if peak > refuse:
+        raise LogError(f"{path}: {first_line(i)}, column {column!r}: "
+                       f"{fmt_number(v[i] / _unit_table(ch)[unit])} {unit} = "
+                       f"{peak * scale:.3g} {shown}, which no sensor measures "
+                       f"(refused beyond {refuse * scale:.0e} {shown}); check the column's unit")
+    if peak > warn:
+        warnings.warn(PlausibilityWarning(
+            f"{path}: column {column!r} reaches {peak * scale:.4g} {shown} ("
+            f"{first_line(i)}), beyond any {'gyro' if kind == 'gyro' else 'accelerometer'}'s "
+            f"range ({warn * scale:g} {shown}): is its unit {unit!r} right?"))
+
+
+@dataclass
+class Log:
+    """A validated log.
+
+    Attributes
+    ----------
+    path : str
+        The file.
+    frame : pandas.DataFrame
+        Every column as read (written back unchanged by ``compensate``).
+    fs : float
+        Sample rate, Hz.
+    channels : dict of str to ndarray, shape (n,)
+        The validated channels by canonical name (``gyro_x``, ``acc_y``, ``temp``), in SI units
+        (rad/s, m/s^2, deg C) or raw counts where the unit is ``au``.
+    units : dict of str to str
+        Unit suffix of each channel as given (``dps``).
+    sources : dict of str to str
+        The file column each channel came from.
+    segments : list of (int, int)
+        Sample ranges [start, stop) of the gap-free pieces (one when there is no gap).
+    """
+
+    path: str
+    frame: object
+    fs: float
+    channels: dict
+    units: dict
+    sources: dict
+    segments: list = field(default_factory=list)
+    origin: str = ""          # what in the file was read ("topic /imu0"), "" for a CSV
+    rows: Rows = field(default_factory=Rows)   # how a message names row i ("line 12")
+
+    @property
+    def n(self) -> int:
+        return len(self.frame)
+
+    def describe(self) -> str:
+        """One line: samples, the sample rate used (Hz) and the sampled duration (s, h), so a
+        time column in the wrong unit shows at once."""
+        d = self.n / self.fs
+        pieces = f" in {len(self.segments)} gap-free pieces" if len(self.segments) > 1 else ""
+        where = f" ({self.origin})" if self.origin else ""
+        return (f"{self.path}{where}: {self.n} samples at {self.fs:.6g} Hz (interval "
+                f"{1.0 / self.fs:.6g} s), {d:.6g} s = {d / 3600:.3g} h{pieces}")
+
+
+# ---------------------------------------------------------------------------------------------
+# Reading and validation
+def _parse_mapping(items) -> dict:
+    """``["gyro_z=GyroZ:dps", "a=b:c,d=e:f"]`` -> {"gyro_z": ("GyroZ", "dps"), ...}."""
+    out = {}
+    for item in items or []:
+        for part in str(item).split(","):
+            part = part.strip()
+            if not part:
+                continue
+            m = re.fullmatch(r"(gyro_[xyz]|acc_[xyz]|temp|time)=(.+):([A-Za-z0-9_]+)", part)
+            if not m:
+                raise LogError(f"--column {part!r}: expected CHANNEL=HEADER:UNIT with CHANNEL one "
+                               "of gyro_x/y/z, acc_x/y/z, temp, time (e.g. gyro_z=GyroZ:dps)")
+            ch, src, unit = m.group(1), m.group(2), m.group(3).lower()
+            if ch in out:
+                raise LogError(f"--column: channel {ch!r} is mapped twice")
+            other = next((c for c, (s_, _) in out.items() if s_ == src), None)
+            if other is not None:
+                raise LogError(f"--column: the file column {src!r} is mapped to two channels, "
+                               f"{other} and {ch}; each channel needs its own column")
+            out[ch] = (src, unit)
+    return out
+
+
+def _unit_table(channel: str) -> dict:
+    if channel == "time":
+        return TIME_UNITS
+    if channel == "temp":
+        return TEMP_UNITS
+    return _KINDS[channel.split("_")[0]]
+
+
+def _check_unit(path, channel: str, column: str, unit: str | None) -> str:
+    table = _unit_table(channel)
+    if unit is None or unit == "":
+        raise LogError(f"{path}: column {column!r}: no unit suffix; name it e.g. "
+                       f"{channel}_{next(iter(table))} or map it with --column "
+                       f"{channel}={column}:UNIT (units: {', '.join(table)})")
+    if unit not in table:
+        raise LogError(f"{path}: column {column!r}: unknown unit {unit!r} for {channel}; "
+                       f"known: {', '.join(table)}")
+    return unit
+
+
+def fmt_number(x) -> str:
+    """A number as a person writes it (``inf``, ``1.5``), never ``np.float64(inf)``."""
+    try:
+        return f"{float(x):.10g}"
+    except (TypeError, ValueError):
+        return repr(x)
+
+
+def numeric(path, frame, column: str, first_line: Rows) -> np.ndarray:
+    import pandas as pd
+
+    s = frame[column]
+    values = pd.to_numeric(s, errors="coerce").to_numpy(dtype=float)
+    bad = ~np.isfinite(values)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raw = s.iloc[i]
+        if raw is None or (isinstance(raw, float) and math.isnan(raw)) or str(raw).strip() == "":
+            what = "empty or NaN cell"
+        elif isinstance(raw, str):
+            what = f"non-numeric value {raw!r}" if not re.fullmatch(
+                r"[+-]?(nan|inf|infinity)", raw.strip(), re.I) else f"non-finite value {raw!r}"
+        else:
+            what = f"non-finite value {fmt_number(raw)}"
+        n_bad = int(bad.sum())
+        raise LogError(f"{path}: {first_line(i)}, column {column!r}: {what}"
+                       + (f" ({n_bad} bad cells in this column)" if n_bad > 1 else ""))
+    return values
+
+
+def read_log(path, *, mapping=None, channels=None, fs=None, gaps: str = "refuse",
+             time_tolerance: float = 0.05, min_samples: int = 2,
+             fs_is_fallback: bool = False, model_mapping: dict | None = None,
+             model_file=None, fmt: str | None = None, topic: str | None = None) -> Log:
+    """Read and validate a log (see the module docstring).
+
+    Parameters
+    ----------
+    path : str or Path
+        CSV file, gzip accepted (``.gz``).
+    mapping : list of str, optional
+        ``--column`` items, ``CHANNEL=HEADER:UNIT``.
+    channels : list of str, optional
+        The channels needed (``gyro_x`` ...; ``gyro_*``: every gyro channel, at least one);
+        None: every channel the header names. Each must be present.
+    fs : float, optional
+        Sample rate, Hz; required when there is no time column, checked against it otherwise.
+    gaps : {"refuse", "split"}
+        What to do with a gap in the time column (an interval more than 1.5 median intervals):
+        refuse the file, or cut it into gap-free segments.
+    time_tolerance : float
+        Largest relative departure of a sample interval from the median one that is not a gap
+        (default 0.05).
+    min_samples : int
+        Fewest samples the command needs (in the longest gap-free segment).
+    fs_is_fallback : bool
+        ``fs`` is only a stand-in for a log without a time column (not checked against one).
+    model_mapping : dict of str to (str, str), optional
+        Channel -> (column, unit) taken from a saved model (``compensate``); ``mapping`` wins
+        over it, and an error names the model file, not a ``--column`` the user did not type.
+    model_file : str or Path, optional
+        The model file ``model_mapping`` comes from (for messages).
+    fmt : {"csv", "euroc", "rosbag", "ulog"}, optional
+        The file's format (``--format``); None: recognised from its content.
+    topic : str, optional
+        The IMU topic of a bag or ULog (``--topic``).
+
+    Returns
+    -------
+    Log
+    """
+    _check_options(gaps, time_tolerance, fs)
+    mapped = _parse_mapping(mapping)
+    from_model = {ch: v for ch, v in (model_mapping or {}).items() if ch not in mapped}
+    frame, first_line, origin = _read_any(path, fmt, topic)
+    if len(frame) == 0:
+        raise LogError(f"{path}: no data rows")
+    found = _columns(path, frame, mapped, from_model, model_file)
+    wanted = _wanted(path, frame, channels, found)
+    for ch in [*wanted, *(["time"] if "time" in found else [])]:
+        src, unit = found[ch]
+        found[ch] = (src, _check_unit(path, ch, src, unit))
+    values, units, sources = {}, {}, {}
+    for ch in wanted:
+        src, unit = found[ch]
+        v = numeric(path, frame, src, first_line)
+        factor = _unit_table(ch)[unit]
+        values[ch] = v if factor is None else v * factor
+        units[ch], sources[ch] = unit, src
+        if factor is not None:
+            _check_magnitude(path, ch, src, unit, values[ch], first_line)
+    n = len(frame)
+    segments = [(0, n)]
+    if "time" in found:
+        fs, segments = _timing(path, frame, found["time"], first_line, fs, fs_is_fallback,
+                               gaps, time_tolerance, min_samples)
+    elif fs is None:
+        raise LogError(f"{path}: no time column (time_s) to take the sample rate from; "
+                       "give --fs HZ")
+    _check_rate(path, fs, found)
+    longest = max(b - a for a, b in segments)
+    if longest < min_samples:
+        raise LogError(f"{path}: record too short: {longest} samples"
+                       + (" in its longest gap-free piece" if len(segments) > 1 else "")
+                       + f", this command needs at least {min_samples}")
+    return Log(path=str(path), frame=frame, fs=float(fs), channels=values, units=units,
+               sources=sources, segments=segments, origin=origin, rows=first_line)
+
+
+def _check_options(gaps: str, time_tolerance: float, fs) -> None:
+    """--gaps, --time-tolerance and --fs checked before the file is read."""
+    if gaps not in ("refuse", "split"):
+        raise LogError(f"--gaps: expected 'refuse' or 'split', got {gaps!r}")
+    if not (math.isfinite(time_tolerance) and 0 < time_tolerance < 0.5):
+        raise LogError(f"--time-tolerance: expected a fraction between 0 and 0.5, got "
+                       f"{time_tolerance!r}")
+    if fs is not None and not (math.isfinite(fs) and fs > 0):
+        raise LogError(f"--fs: expected a positive, finite sample rate in Hz, got "
+                       f"{fmt_number(fs)}")
+
+
+def _columns(path, frame, mapped: dict, from_model: dict,
+             model_file) -> dict[str, tuple[str, str | None]]:
+    """Channel -> (column, unit as written) of every channel the header names, ``--column``
+    maps or a saved model names; a unit is checked later, only for the channels used."""
+    found: dict[str, tuple[str, str | None]] = {}
+    mapped_sources = {src for src, _ in [*mapped.values(), *from_model.values()]}
+    for col in frame.columns:
+        if col in mapped_sources:
+            continue
+        name = bracketed_column(col) or col
+        m = _HEADER.match(name)
+        if name.startswith("time_"):
+            found["time"] = (col, name[5:].lower())
+            continue
+        if name.startswith("temp_") and name != col:
+            found["temp"] = (col, name[5:].lower())
+            continue
+        if m:
+            kind = "acc" if m.group(1) == "accel" else m.group(1)
+            ch = f"{kind}_{m.group(2)}"
+            if ch in mapped or ch in from_model:
+                continue
+            found[ch] = (col, m.group(3) and m.group(3).lower())
+        elif col.startswith("time_") or col == "time":
+            found["time"] = (col, col[5:].lower() or None)
+        elif col.startswith("temp_") or col == "temp":
+            found["temp"] = (col, col[5:].lower() or None)
+    for ch, (src, unit) in mapped.items():
+        if src not in frame.columns:
+            raise LogError(f"{path}: --column {ch}={src}:{unit}: no column {src!r}; columns: "
+                           f"{', '.join(frame.columns)}")
+        found[ch] = (src, _check_unit(path, ch, src, unit))
+    for ch, (src, unit) in from_model.items():
+        if src not in frame.columns:
+            raise LogError(f"{path}: no column {src!r} for {ch}: the model {model_file} names "
+                           f"it (its calibration file's header); columns: "
+                           f"{', '.join(frame.columns)}; map this log's column with --column "
+                           f"{ch}=HEADER:{unit}")
+        found[ch] = (src, unit)
+    return found
+
+
+def _wanted(path, frame, channels, found: dict) -> list[str]:
+    """The channels a command asks for (``gyro_*``: every gyro, at least one; ``acc_*?``:
+    every accelerometer there is), each present."""
+    wanted = list(channels) if channels is not None else [c for c in found if c != "time"]
+    if "gyro_*" in wanted:
+        gyros = sorted(c for c in found if c.startswith("gyro_"))
+        if not gyros:
+            raise LogError(f"{path}: no gyro column (e.g. gyro_x_dps); columns: "
+                           f"{', '.join(frame.columns)}; map another name with --column "
+                           "gyro_x=HEADER:UNIT")
+        i = wanted.index("gyro_*")
+        wanted[i:i + 1] = [g for g in gyros if g not in wanted]
+    if "acc_*?" in wanted:     # every accelerometer channel there is, perhaps none
+        i = wanted.index("acc_*?")
+        wanted[i:i + 1] = sorted(c for c in found if c.startswith("acc_") and c not in wanted)
+    for ch in wanted:
+        if ch not in found:
+            raise LogError(f"{path}: missing column for {ch} (e.g. {ch}_"
+                           f"{next(iter(_unit_table(ch)))}); columns: {', '.join(frame.columns)}"
+                           f"; map another name with --column {ch}=HEADER:UNIT")
+    return wanted
+
+
+def _timing(path, frame, time_col: tuple[str, str], first_line, fs, fs_is_fallback: bool,
+            gaps: str, time_tolerance: float, min_samples: int):
+    """(sample rate, gap-free pieces) from the time column: increasing, regular within the
+    tolerance, gaps refused or split at, and ``--fs`` (unless only a fallback) agreeing."""
+    src, unit = time_col
+    n = len(frame)
+    segments = [(0, n)]
+    t = numeric(path, frame, src, first_line)
+    if frame[src].dtype.kind in "iu":   # integer stamps (EuRoC ns): from the first row,
+        # exactly (a float64 holds 1.4e18 ns only to 256 ns); messages give time since it
+        t = (frame[src].to_numpy() - frame[src].iloc[0]).astype(float)
+    t = t * TIME_UNITS[unit]
+    if n < 2:
+        raise LogError(f"{path}: one row only; a record needs at least {max(2, min_samples)}")
+    dt = np.diff(t)
+    bad = np.flatnonzero(dt <= 0)
+    if bad.size:
+        i = int(bad[0])
+        word = "duplicated" if dt[i] == 0 else "not increasing"
+        raise LogError(f"{path}: {first_line(i + 1)}, column {src!r}: time {word} "
+                       f"({t[i + 1]:.10g} after {t[i]:.10g})")
+    step = float(np.median(dt))
+    fs_t = 1.0 / step
+    gap = dt > 1.5 * step
+    irregular = (np.abs(dt / step - 1.0) > time_tolerance) & ~gap
+    if irregular.any():
+        i = int(np.flatnonzero(irregular)[0])
+        raise LogError(f"{path}: {first_line(i + 1)}, column {src!r}: irregular "
+                       f"sampling, interval {dt[i]:.6g} s vs median {step:.6g} s (more "
+                       f"than {time_tolerance:.0%} off; {int(irregular.sum())} such "
+                       "intervals); resample the log or raise --time-tolerance")
+    if gap.any():
+        i = int(np.flatnonzero(gap)[0])
+        if gaps == "refuse":
+            raise LogError(f"{path}: {first_line(i + 1)}, column {src!r}: gap of "
+                           f"{dt[i]:.6g} s ({dt[i] / step - 1:.0f} missing samples at "
+                           f"{step:.6g} s) after time {t[i]:.10g}; {int(gap.sum())} gap(s) "
+                           "in all; use --gaps split to analyse the pieces separately")
+        cuts = np.flatnonzero(gap) + 1
+        bounds = [0, *cuts.tolist(), n]
+        segments = [(a, b) for a, b in zip(bounds[:-1], bounds[1:])]
+    # The mean interval of the longest gap-free piece: far less sensitive than the median
+    # to timestamps rounded to a few decimals.
+    a0, b0 = max(segments, key=lambda ab: ab[1] - ab[0])
+    if b0 - a0 >= 2:
+        fs_t = (b0 - a0 - 1) / (t[b0 - 1] - t[a0])
+    if fs is not None and not fs_is_fallback and abs(fs / fs_t - 1.0) > time_tolerance:
+        raise LogError(f"{path}: --fs {fs:g} Hz disagrees with the time column "
+                       f"{src!r}, which gives {fs_t:.6g} Hz")
+    return fs_t, segments
+
+
+def _check_rate(path, fs: float, found: dict) -> None:
+    """A sample rate that is positive, and one outside gyro logs' range warned of."""
+    if not (math.isfinite(fs) and fs > 0):
+        raise LogError(f"--fs: expected a positive sample rate in Hz, got {fmt_number(fs)}")
+    lo, hi = PLAUSIBLE_FS_HZ
+    if not lo <= fs <= hi:
+        where = f"the time column {found['time'][0]!r}" if "time" in found else "--fs"
+        warnings.warn(PlausibilityWarning(
+            f"{path}: {where} gives a sample rate of {fs:.6g} Hz, outside the {lo:g} Hz to "
+            f"{hi / 1000:g} kHz of gyro logs: is the time unit in its name right (ms or us "
+            "written under _s, or s under _ms)?"))
+
+
+def _read_any(path, fmt: str | None, topic: str | None):
+    """(frame, Rows, origin) of a log in any format ``fogbench.formats`` reads."""
+    from fogbench.formats.detect import FORMATS, detect
+
+    if fmt is not None and fmt not in FORMATS:
+        raise LogError(f"--format: expected one of {', '.join(FORMATS)}, got {fmt!r}")
+    kind = fmt or detect(path)
+    if kind in ("csv", "euroc"):
+        if topic is not None:
+            raise LogError(f"--topic {topic!r}: {path} is a CSV file; --topic chooses the IMU "
+                           "topic of a ROS bag, MCAP or ULog file")
+        frame, rows = read_frame(path)
+        if kind == "euroc" and not any(bracketed_column(c) for c in frame.columns):
+            raise LogError(f"{path}: --format euroc: its header is not EuRoC's (e.g. "
+                           "'#timestamp [ns],w_RS_S_x [rad s^-1],...'); first line: "
+                           f"{', '.join(frame.columns)}")
+        return frame, rows, ""
+    p = Path(path)
+    if not p.exists():
+        raise LogError(f"{path}: file not found")
+    if not (p.is_file() or (kind == "rosbag" and p.is_dir())):
+        raise LogError(f"{path}: not a regular file (a pipe, device, socket or folder); give "
+                       f"the {kind} file" + (" or the bag's folder" if kind == "rosbag" else ""))
+    return read_table(p, kind, topic)
+
+
+def read_table(path, fmt: str, topic: str | None):
+    """(frame, Rows, description) of a bag or ULog; the CSV formats are read by the caller."""
+    if fmt == "rosbag":
+        from fogbench.formats.rosbag import read_imu_topic
+
+        return read_imu_topic(path, topic)
+    if fmt == "ulog":
+        from fogbench.formats.ulog import read_ulog
+
+        return read_ulog(path, topic)
+    raise ValueError(fmt)

@@ -1,0 +1,584 @@
+"""The scenario runner: simulate the runs, fit every method, score it against the truth.
+
+For every protocol and every (fit, score) pairing it fits each method on the fit samples (with the
+protocol's reference: the truth rate, an ideal lab's, or ``reference = "lab"``: the rate and the
+specific force a lab computes from the table's commands and its nominal site, ``sim/lab.py``;
+methods see the chosen specific force at scoring too) and scores it on the score samples, beside
+the raw output and the oracle (raw minus the true deterministic error terms: the floor that no
+compensator of the error model can beat without also filtering the signal). A method that fails
+(diverges, or raises) is recorded as failed with its message and the run goes on.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import time
+import traceback
+import warnings
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+import fogcomp
+from fogbench.outputs.files import atomic_write_text, json_ready, versions
+from fogbench.run.metrics import IMPROVEMENT_OF
+from fogbench.run.seeds import replicate_seed
+from fogbench.scenario import (
+    Plan,
+    Protocol,
+    Scenario,
+    Selection,
+    expand,
+    load_plan,
+    load_scenario,
+    select_indices,
+)
+from fogbench.scenario.load import RUNNER_SECTIONS
+from fogcomp import GyroData
+from fogcomp import metrics as M
+from fogcomp._limits import MethodTimeout, time_limit
+from fogcomp.units import DPH, DPS
+from sim.rig import RunData, simulate_run
+from sim.thermal import ThermalHold
+
+__all__ = ["run_scenario", "ScenarioResult", "Scored"]
+
+DETERMINISTIC = ("constant_bias", "switch_on_bias", "rate_ramp", "scale_factor", "misalignment",
+                 "g_sensitivity", "g2_sensitivity", "temperature")
+
+
+@dataclass
+class Piece:
+    """Selected (and possibly smoothed) samples of one run: inputs, truth, terms."""
+
+    run: str
+    fs: float
+    t: np.ndarray
+    raw: np.ndarray
+    truth: np.ndarray
+    g: np.ndarray
+    temp: np.ndarray
+    temp_rate: np.ndarray
+    oracle: np.ndarray
+    ref: np.ndarray | None = None         # the reference rate the fit is handed (protocol's
+    #                                       reference: the lab's, sim/lab.py; None: the truth)
+    saturated: np.ndarray | None = None   # (n,) float: fraction of the samples clipped (0 or 1
+    #                                       unsmoothed; the fraction of the block when smoothed)
+
+    def gyro(self) -> GyroData:
+        return GyroData(rate=self.raw, fs=self.fs, g=self.g, temp=self.temp,
+                        temp_rate=self.temp_rate)
+
+
+@dataclass
+class Scored:
+    """One scored piece: the outputs of raw, oracle and every method."""
+
+    protocol: str
+    run: str
+    piece: Piece
+    outputs: dict[str, np.ndarray] = field(default_factory=dict)   # label -> compensated rate
+    metrics: dict[str, dict] = field(default_factory=dict)         # label -> metric -> value
+    seed_metrics: dict[str, list] = field(default_factory=dict)    # label -> [metrics per seed]
+
+
+@dataclass
+class ScenarioResult:
+    scenario: Scenario
+    plan: Plan
+    data: dict[str, RunData]
+    scored: list[Scored]
+    fits: dict  # protocol -> method label -> list of fit records
+    metrics: dict
+    wall_s: float
+
+
+def _smooth(x: np.ndarray, k: int) -> np.ndarray:
+    n = (x.shape[0] // k) * k
+    return x[:n].reshape((n // k, k) + x.shape[1:]).mean(axis=1)
+
+
+def make_piece(rd: RunData, sel: Selection, prot: Protocol, axis_j: int,
+               lab_ref: tuple | None = None) -> Piece:
+    """The samples of one run that ``sel`` picks: selection, then smoothing (when the protocol
+    smooths, in blocks that never straddle a gap), then the stride (over the smoothed samples).
+
+    With the protocol's ``reference = "lab"`` the reference rate and the specific force a method
+    is handed are the lab's, ``lab_ref`` = (rate, specific force) of the whole run from
+    ``sim.lab.lab_reference``; the truth stays for scoring."""
+    plain = replace(sel, stride=1, offset=0)
+    idx = select_indices(plain, rd.run, rd.fs, prot.skip_s, rd.truth.table_rate)
+    truth = rd.truth_axis(axis_j)
+    ref, g = truth, rd.truth.specific_force
+    if prot.reference == "lab":
+        if lab_ref is None:
+            raise ValueError(f"protocol {prot.name!r}: reference = 'lab' needs the lab's "
+                             "reference of the run")
+        rate_lab, g = lab_ref
+        ref = rate_lab[:, "xyz".index(rd.axes[axis_j])]
+    det = sum((rd.fog.terms[k][:, axis_j] for k in DETERMINISTIC if k in rd.fog.terms),
+              np.zeros(rd.n))
+    # a compensator sees what a lab sees: the temperature sensor's reading and the dT/dt
+    # differenced from it; the oracle (raw minus the true terms) keeps the true coil temperature
+    sat = rd.fog.saturated
+    cols = dict(t=rd.truth.t, raw=rd.fog.raw[:, axis_j], truth=truth, ref=ref,
+                g=g, temp=rd.thermal.sensor,
+                temp_rate=rd.thermal.sensor_rate, oracle=rd.fog.raw[:, axis_j] - det,
+                saturated=(np.zeros(rd.n) if sat is None else sat[:, axis_j].astype(float)))
+    fs = rd.fs
+    if prot.smooth_s:
+        k = int(round(prot.smooth_s * fs))
+        parts = [p for p in np.split(idx, np.flatnonzero(np.diff(idx) != 1) + 1) if p.size >= k]
+        cols = {c: (np.concatenate([_smooth(v[p], k) for p in parts]) if parts else v[:0])
+                for c, v in cols.items()}
+        fs = fs / k
+    else:
+        cols = {c: v[idx] for c, v in cols.items()}
+    if sel.stride > 1:
+        cols = {c: v[sel.offset::sel.stride] for c, v in cols.items()}
+    if cols["raw"].size == 0:
+        raise ValueError(f"selection {sel.describe()} of protocol {prot.name!r} has no samples")
+    return Piece(run=rd.run.name, fs=fs, **cols)
+
+
+def concat(pieces: list[Piece]) -> Piece:
+    if len(pieces) == 1:
+        return pieces[0]
+    return Piece(run="+".join(p.run for p in pieces), fs=pieces[0].fs,
+                 **{c: np.concatenate([getattr(p, c) for p in pieces])
+                    for c in ("t", "raw", "truth", "g", "temp", "temp_rate", "oracle", "ref",
+                              "saturated")})
+
+
+def thermal_segments(rd: RunData) -> list[tuple[str, float, float]]:
+    """(label, start_s, end_s) of the thermal program's holds and ramps."""
+    if rd.run.thermal is None or not rd.run.thermal.steps:
+        return []
+    prog = rd.run.thermal
+    out, t, temp = [], 0.0, prog.start
+    for st in prog.steps:
+        if isinstance(st, ThermalHold):
+            out.append((f"hold {temp:g} C", t, t + st.duration))
+            t += st.duration
+        else:
+            d = abs(st.to - temp) / st.rate
+            out.append((f"ramp {temp:g}..{st.to:g} C", t, t + d))
+            t, temp = t + d, st.to
+    return out
+
+
+def score(out: np.ndarray, piece: Piece, raw_ref: dict | None = None) -> dict:
+    """Metrics of a compensated output against the truth, units in every name."""
+    err = out - piece.truth
+    m = {
+        "std_dps": M.std(out) / DPS,
+        "std_dph": M.std(out) / DPH,
+        "rmse_dph": M.rmse(out, piece.truth) / DPH,
+        "mean_error_dph": float(np.mean(err)) / DPH,
+    }
+    ang = M.integrated_angle_error(out, piece.truth, piece.fs)
+    if piece.saturated is not None and np.any(piece.saturated):
+        m["saturated_pct"] = 100.0 * float(np.mean(piece.saturated))   # output clipped
+    m["angle_error_final_deg"] = math.degrees(ang["angle_error_final_rad"])
+    m["angle_error_max_deg"] = math.degrees(ang["angle_error_max_rad"])
+    # pieces made of separate static dwells (multi-position tests): the drift left at each
+    # position is the mean error over its dwell, which averages the noise out
+    gaps = np.flatnonzero(np.diff(piece.t) > 1.5 / piece.fs) + 1
+    if gaps.size:
+        means = [np.mean(b) for b in np.split(err, gaps) if b.size]
+        m["drift_rms_dph"] = float(np.sqrt(np.mean(np.square(means)))) / DPH
+    dur = out.size / piece.fs
+    if dur >= 1000.0 and out.size >= 512 and piece.fs >= 1.0 and gaps.size == 0:
+        # noise identification of the error against the truth: the one identifier
+        # (fogcomp.noise through fogcomp.metrics.noise_terms), the datasheet floor beside it
+        ds = M.noise_terms(err, piece.fs)
+        for k in ("arw_deg_rt_h", "bias_instability_dph", "rrw_dph_rt_h",
+                  "bias_instability_floor_dph", "gm_sigma_dph", "gm_tau_s"):
+            if ds.get(k) is not None:
+                m[k] = ds[k]
+    if dur >= 300.0 and gaps.size == 0:  # of one contiguous record, not of stitched dwells
+        m["bias_stability_100s_dph"] = M.bias_stability(out, piece.fs, 100.0) / DPH
+    if raw_ref is not None:
+        for key, name in IMPROVEMENT_OF.items():
+            if key in m and raw_ref.get(key):
+                m[name] = 100.0 * (1.0 - m[key] / raw_ref[key])
+    return m
+
+
+def _coef_record(model) -> dict | None:
+    for attr in ("coef_dph", "coef_dict"):
+        fn = getattr(model, attr, None)
+        if callable(fn):
+            try:
+                return {k: float(v) for k, v in fn().items() if np.isscalar(v)}
+            except Exception:  # a method without coefficients for this fit
+                return None
+    return None
+
+
+def _ident_record(model) -> dict | None:
+    ident = getattr(model, "identifiability_", None)
+    if ident is None:
+        return None
+    rec = {"rank": int(ident.rank), "n_terms": int(ident.n_terms),
+           "condition": float(ident.condition), "summary": list(ident.summary)}
+    names = getattr(ident, "names", None)
+    stderr = getattr(ident, "stderr", None)
+    if names is not None and stderr is not None:
+        # the FLNN's d0..d9 are in rad/s per g^k: deg/h per g^k for people
+        rec["stderr_dph"] = {n: (None if not np.isfinite(s) else float(s) / DPH)
+                             for n, s in zip(names, np.asarray(stderr)) if n in TERM_NAMES}
+    return rec
+
+
+def run_scenario(path, progress=None, methods: list[str] | None = None, replicate: int = 0,
+                 method_seeds: int = 1, truths: dict | None = None,
+                 overrides: dict | None = None) -> ScenarioResult:
+    """Simulate and score one scenario file. ``progress(message)`` reports each step.
+
+    ``replicate`` r draws every random stream (the FOG's switch-on draws and noise, the
+    temperature sensor's noise, every random method's start) from coordinates (scenario seed, r,
+    run, stream) alone (:func:`run_seed`, :func:`method_seed`); replicate 0 uses the runs' own
+    seeds, as a single
+    run always did. ``method_seeds`` K > 1 fits every method that draws random numbers K times
+    per fit, with K seeds (their metrics in ``Scored.seed_metrics``). ``truths`` (run name ->
+    ``Truth``) caches the deterministic table motion between replicates: filled when empty.
+    ``overrides`` (dotted path -> value) make it a point of the scenario's claim map.
+    """
+    t_start = time.monotonic()
+    say = progress or (lambda msg: None)
+    sc = load_scenario(path, extra_sections=RUNNER_SECTIONS, overrides=overrides)
+    plan = load_plan(sc)
+    if methods:
+        unknown = sorted(set(methods) - {m.label for m in plan.methods})
+        if unknown:
+            raise ValueError(f"{sc.path}: no method labelled {unknown}; methods: "
+                             f"{[m.label for m in plan.methods]}")
+        plan = replace(plan, methods=tuple(m for m in plan.methods if m.label in methods))
+    axis_j = sc.axes.index(plan.axis)
+    truths = {} if truths is None else truths
+    data, seeds = {}, {}
+    for i, run in enumerate(sc.runs):
+        cached = truths.get(run.name)
+        say(f"simulate {run.name} ({i + 1}/{len(sc.runs)}, {run.duration:g} s)"
+            + (f", replicate {replicate}" if replicate else "")
+            + (" (table motion reused)" if cached is not None else ""))
+        seeds[run.name] = run_seed(sc, plan, replicate, i)
+        data[run.name] = simulate_run(sc.rig, run, seed=seeds[run.name], truth=cached)
+        truths[run.name] = data[run.name].truth
+
+    # the lab's references of every run, once (protocols with reference = "lab")
+    lab_refs = {}
+    if any(p.reference == "lab" for p in plan.protocols):
+        from sim.lab import LabKnowledge, lab_reference
+
+        # (an accelerometer triad, gravity_source = "accelerometer", draws its noise from the
+        # run's own seed, sim.lab.accelerometer_reading)
+        lab_refs = {name: lab_reference(rd.truth, sc.table, plan.lab or LabKnowledge(),
+                                        seed=seeds[name])
+                    for name, rd in data.items()}
+    scored: list[Scored] = []
+    fits: dict = {}
+    for prot in plan.protocols:
+        fits[prot.name] = {m.label: [] for m in plan.methods}
+        for fit_sel, score_sel in expand(prot, sc):
+            fit_piece = concat([make_piece(data[s.run], s, prot, axis_j, lab_refs.get(s.run))
+                                for s in fit_sel])
+            pieces = [make_piece(data[s.run], s, prot, axis_j, lab_refs.get(s.run))
+                      for s in score_sel]
+            items = [Scored(prot.name, p.run, p) for p in pieces]
+            for it in items:
+                it.outputs["raw"] = it.piece.raw
+                it.outputs["oracle"] = it.piece.oracle
+                it.metrics["raw"] = score(it.piece.raw, it.piece)
+                it.metrics["oracle"] = score(it.piece.oracle, it.piece, it.metrics["raw"])
+                of = oracle_filter(it.piece, sc.fog, sc.fs)
+                if of is not None:
+                    it.metrics["oracle_filter"] = score(of, it.piece, it.metrics["raw"])
+            for ms in plan.methods:
+                say(f"{prot.name}: fit {ms.label} on {', '.join(s.describe() for s in fit_sel)}")
+                seeded = ms.failed is None and fogcomp.get_method(ms.name).random and \
+                    ms.params.get("random_state") is None
+                for k in range(method_seeds if seeded else 1):
+                    seed = method_seed(sc, plan, prot, ms, fit_sel, replicate, k) if seeded \
+                        else None
+                    rec, model = _fit(ms, seed, fit_piece, fit_sel, score_sel,
+                                      plan.fit_timeout_s)
+                    for it in items:
+                        m, out = _score_model(model, rec, it, data[it.run], axis_j,
+                                              plan.fit_timeout_s)
+                        if k == 0:
+                            it.metrics[ms.label] = m
+                            if out is not None:
+                                it.outputs[ms.label] = out
+                        if seeded and method_seeds > 1:
+                            it.seed_metrics.setdefault(ms.label, []).append(m)
+                    if k == 0:
+                        fits[prot.name][ms.label].append(rec)
+            scored.extend(items)
+
+    metrics = _metrics_doc(sc, plan, data, scored, fits, time.monotonic() - t_start)
+    metrics["replicate"] = replicate
+    metrics["method_seeds"] = method_seeds
+    return ScenarioResult(sc, plan, data, scored, fits, metrics, time.monotonic() - t_start)
+
+
+#: Longest piece the filter oracle is computed for (its Toeplitz solve is O(n^2)).
+ORACLE_FILTER_MAX_SAMPLES = 20_000
+
+
+def noise_autocovariance(params, fs: float, n: int) -> np.ndarray:
+    """Autocovariance of the FOG's stationary noise at lags 0..n-1, (rad/s)^2, from its
+    configured terms (``sim.fog``): white rate (N^2 fs at lag 0), the Gauss-Markov drift
+    (sigma^2 phi^|h|), the flicker's Gauss-Markov components (their variance and corners,
+    ``sim.fog.bias_instability_components``) and the pulse counter's quantisation (a white
+    angle error of one pulse q: 2 (q^2/12) fs^2 at lag 0, -(q^2/12) fs^2 at lag 1). The rate
+    random walk and ramp are not stationary: left out (none of the filter claims' devices has
+    them)."""
+    from sim.fog import bias_instability_components
+
+    h = np.arange(n, dtype=float)
+    c = np.zeros(n)
+    c[0] += params.arw**2 * fs
+    if params.gm_drift:
+        c += params.gm_drift**2 * np.exp(-h / (fs * params.gm_time_constant))
+    if params.bias_instability:
+        corners, sigma = bias_instability_components(params.bias_instability, params.bi_band,
+                                                     params.bi_per_decade)
+        for fc in corners:
+            c += sigma**2 * np.exp(-2.0 * np.pi * fc * h / fs)
+    if params.quantization:
+        q2 = params.quantization**2 / 12.0 * fs**2
+        c[0] += 2.0 * q2
+        if n > 1:
+            c[1] -= q2
+    return c
+
+
+def oracle_filter(piece: Piece, params, fs_run: float) -> np.ndarray | None:
+    """The best a denoiser can do on a piece whose true rate is constant, given the true noise
+    model: the generalised least-squares estimate of that constant, weighted by the inverse of
+    the noise's covariance (``noise_autocovariance``, a Toeplitz solve), output at every
+    sample. A filter claim that asks more than it gives is untestable, as a compensation claim
+    beyond the oracle of the deterministic terms is. None where it does not apply: a moving
+    table, a smoothed or gapped piece, no noise, or more than ``ORACLE_FILTER_MAX_SAMPLES``."""
+    from scipy.linalg import solve_toeplitz
+
+    n = piece.raw.size
+    if n < 2 or n > ORACLE_FILTER_MAX_SAMPLES or abs(piece.fs - fs_run) > 1e-9 * fs_run:
+        return None
+    if np.any(np.diff(piece.t) > 1.5 / piece.fs):
+        return None
+    noise = piece.raw - piece.truth
+    if np.std(piece.truth) > 0.01 * max(np.std(noise), 1e-300):
+        return None
+    c = noise_autocovariance(params, piece.fs, n)
+    if not c[0] > 0:
+        return None
+    w = solve_toeplitz(c, np.ones(n))
+    return np.full(n, float(w @ piece.raw / w.sum()))
+
+
+#: What a method may raise and be reported as failed for (not KeyboardInterrupt: the user's)
+_METHOD_FAILURES = (Exception, MethodTimeout, SystemExit)
+
+
+def _fit(ms, seed, fit_piece: Piece, fit_sel, score_sel, timeout_s: float | None = None):
+    """Make and fit one method; a failure is recorded (rec["status"]), never raised."""
+    rec = {"fit_on": [s.describe() for s in fit_sel],
+           "scored_on": [s.describe() for s in score_sel]}
+    if seed is not None:
+        rec["random_state"] = seed
+    if getattr(ms, "failed", None):
+        rec.update(status="failed", error=ms.failed, warnings=[])
+        return rec, None
+    model = None
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            with time_limit(timeout_s, f"{ms.label}: fit", note=" (fit_timeout_s)"):
+                model = fogcomp.make_method(ms.name, **ms.params)
+                if seed is not None:
+                    model.random_state = seed
+                t0 = time.perf_counter()
+                model.fit(fit_piece.gyro(),
+                          fit_piece.truth if fit_piece.ref is None else fit_piece.ref)
+                rec["fit_time_s"] = time.perf_counter() - t0
+            rec["status"] = "ok"
+        except _METHOD_FAILURES as exc:  # any failure of a method is reported, not fatal
+            rec["status"] = "failed"
+            rec["error"] = f"{type(exc).__name__}: {exc}"
+            rec["traceback"] = traceback.format_exc(limit=3)
+            model = None
+        rec["warnings"] = sorted({f"{w.category.__name__}: {w.message}" for w in caught})
+    if model is not None:
+        try:    # what a method learned, as far as it has the usual attributes (a plug-in may not)
+            rec["coefficients"] = _coef_record(model)
+            rec["identifiability"] = _ident_record(model)
+            for attr in ("level_", "n_iter_", "n_epochs_", "initial_loss_"):
+                if hasattr(model, attr):
+                    v = getattr(model, attr)
+                    rec[attr.rstrip("_")] = v if isinstance(v, (int, str)) else float(v)
+            if hasattr(model, "loss_curve_"):
+                rec["loss_curve"] = [float(x) for x in np.asarray(model.loss_curve_)]
+        except _METHOD_FAILURES as exc:
+            rec["warnings"].append(f"its learned attributes could not be recorded "
+                                   f"({type(exc).__name__}: {exc})")
+    return rec, model
+
+
+def _score_model(model, rec: dict, it: "Scored", rd: RunData, axis_j: int,
+                 timeout_s: float | None = None):
+    """Compensate one scored piece with a fitted model: (metrics, output or None)."""
+    if model is None:
+        return {"status": "failed", "error": rec["error"]}, None
+    try:
+        with time_limit(timeout_s, "compensate", note=" (fit_timeout_s)"):
+            t0 = time.perf_counter()
+            out = np.asarray(model.compensate(it.piece.gyro()), dtype=float)
+            dt = time.perf_counter() - t0
+    except _METHOD_FAILURES as exc:
+        return {"status": "failed", "error": f"{type(exc).__name__}: {exc}"}, None
+    if out.shape != it.piece.raw.shape:
+        return {"status": "failed", "error": f"compensated output has shape {out.shape}, "
+                f"expected {it.piece.raw.shape}"}, None
+    if not np.all(np.isfinite(out)):
+        return {"status": "failed", "error": "compensated output is not finite"}, None
+    m = score(out, it.piece, it.metrics["raw"])
+    m["fit_time_s"] = rec["fit_time_s"]
+    m["compensate_time_s"] = dt
+    m["compensate_samples_per_s"] = out.size / dt if dt > 0 else None
+    truth_coef = _true_coefficients(rd, axis_j)
+    if rec.get("coefficients") and truth_coef:
+        se = (rec.get("identifiability") or {}).get("stderr_dph", {})
+        ident = [n for n in TERM_NAMES if se.get(n, 0.0) is not None]
+        m.update(_coef_errors(rec["coefficients"], truth_coef, ident, se))
+    return m, out
+
+
+def scenario_seed(sc, plan) -> int:
+    """The scenario's Monte Carlo seed: ``[montecarlo] seed``, else a hash of its name."""
+    import zlib
+
+    return plan.mc_seed if plan.mc_seed is not None else zlib.crc32(sc.name.encode())
+
+
+def run_seed(sc, plan, replicate: int, run_index: int) -> int:
+    """The seed of run ``run_index``'s random draws in ``replicate`` (0: the run's own seed)."""
+    if replicate == 0:
+        return sc.runs[run_index].seed
+    return replicate_seed(scenario_seed(sc, plan), replicate, run_index, "fog")
+
+
+def method_seed(sc, plan, prot, ms, fit_sel, replicate: int, k: int) -> int:
+    """A random method's seed for one fit: replicate 0, k 0 keeps the single run's seed."""
+    if replicate == 0 and k == 0:
+        return _method_seed(sc, prot, ms, fit_sel)
+    runs = [r.name for r in sc.runs]
+    first = runs.index(fit_sel[0].run) if fit_sel and fit_sel[0].run in runs else 0
+    # the members of a sweep share their random numbers: a band shows the setting, not the start
+    stream = (f"method:{prot.seed_name}:{ms.group or ms.label}:"
+              f"{'|'.join(s.run for s in fit_sel)}:{k}")
+    return replicate_seed(scenario_seed(sc, plan), replicate, first, stream)
+
+
+def _method_seed(sc, prot, ms, fit_sel) -> int:
+    """A method's seed, derived from the scenario, protocol, method and fit runs (stable)."""
+    import zlib
+
+    key = f"{sc.name}|{prot.seed_name}|{ms.label}|{'|'.join(s.run for s in fit_sel)}"
+    return zlib.crc32(key.encode())
+
+
+TERM_NAMES = ("d0", "d1", "d2", "d3", "d4", "d5", "d6", "d7", "d8", "d9")
+
+
+def _true_coefficients(rd: RunData, j: int) -> dict | None:
+    """The true g-model coefficients d0..d9 of this power-on (deg/h, deg/h/g, deg/h/g^2)."""
+    if not any(k in rd.fog.terms for k in ("g_sensitivity", "g2_sensitivity")):
+        return None
+    bias = 0.0
+    for k in ("constant_bias", "switch_on_bias"):
+        if k in rd.fog.terms:
+            bias += float(rd.fog.terms[k][0, j])
+    d = [bias] + list(rd.fog.draws["g_sens"][j]) + list(rd.fog.draws["g2_sens"][j])
+    return {n: v / DPH for n, v in zip(TERM_NAMES, d)}
+
+
+def _coef_errors(est: dict, true: dict, identified: list[str],
+                 stderr: dict | None = None) -> dict:
+    """Errors of d0..d9 against the truth; the RMS is over the identified coefficients only
+    (an unidentified one is an arbitrary point of its null direction, not an estimate). With
+    the fit's own standard errors (``stderr``, deg/h per g^k: the least-squares covariance of
+    ``fogcomp.methods.flnn.identifiability``) also their RMS and the RMS of error / standard
+    error, ``coef_z_rms``: near 1 when the errors are the ones the analysis predicts, far above
+    when something the model leaves out (a misalignment, a range) biases the coefficients."""
+    vals = {}
+    for name in TERM_NAMES:
+        key = next((k for k in est if k == name or k.startswith(name + "_")), None)
+        if key is not None:
+            vals[name] = est[key]
+    if len(vals) < len(TERM_NAMES):
+        return {}
+    err = np.array([vals[n] - true[n] for n in TERM_NAMES])
+    ide = np.array([n in identified for n in TERM_NAMES])
+    return {"coef_rms_error_dph": float(np.sqrt(np.mean(err[ide] ** 2))) if ide.any() else None,
+            "coef_identified": [n for n in TERM_NAMES if n in identified],
+            "coef_errors_dph": {n: float(e) for n, e in zip(TERM_NAMES, err)},
+            "coef_true_dph": dict(true), **_coef_z(err, ide, stderr)}
+
+
+def _coef_z(err: np.ndarray, ide: np.ndarray, stderr: dict | None) -> dict:
+    if not stderr:
+        return {}
+    se = np.array([np.nan if stderr.get(n) is None else stderr[n] for n in TERM_NAMES])
+    ok = ide & np.isfinite(se) & (se > 0)
+    if not ok.any():
+        return {}
+    return {"coef_rms_stderr_dph": float(np.sqrt(np.mean(se[ok] ** 2))),
+            "coef_z_rms": float(np.sqrt(np.mean((err[ok] / se[ok]) ** 2)))}
+
+
+def _metrics_doc(sc, plan, data, scored, fits, wall) -> dict:
+    prots = {}
+    for prot in plan.protocols:
+        runs = {}
+        for it in scored:
+            if it.protocol == prot.name:
+                runs[it.run] = it.metrics
+        prots[prot.name] = {
+            "in_sample": prot.in_sample, "description": prot.description,
+            "per_run": prot.per_run, "smooth_s": prot.smooth_s, "skip_s": prot.skip_s,
+            "reference": prot.reference, **({"ideal_of": prot.twin_of} if prot.twin_of else {}),
+            **({"lab": dataclasses.asdict(plan.lab)} if prot.reference == "lab" and plan.lab
+               else {}),
+            "runs": runs,
+            "fits": {k: [{kk: vv for kk, vv in r.items() if kk not in ("traceback",)}
+                         for r in v] for k, v in fits[prot.name].items()},
+        }
+    return {
+        "scenario": sc.name, "scenario_file": sc.path, "description": sc.description,
+        "sample_rate_hz": sc.fs, "axis": plan.axis, "fog_preset": sc.fog_preset,
+        "fog_source": sc.fog_source, "fog_device": sc.device,
+        "fog_set_over_preset": sc.fog_changed, "map_point": sc.overrides or None,
+        "runs": {name: {"seed": rd.run.seed, "samples": rd.n, "duration_s": rd.n / rd.fs,
+                        "physics_steps": rd.truth.physics_steps,
+                        "settled_hold_fast_path_s": rd.truth.settled_fast_path_s}
+                 for name, rd in data.items()},
+        "protocols": prots,
+        # each method label: the built-in or plug-in method it runs, and the sweep it is a
+        # member of (its [[methods]] label) with whether it has the paper's (default) setting
+        "methods": {m.label: {"method": m.name, "group": m.group,
+                              "paper_setting": bool(m.paper_setting)} for m in plan.methods},
+        "wall_time_s": wall,
+        "versions": versions(),
+        "units": "metric names end in their unit: _dps deg/s, _dph deg/h, _deg deg, _pct "
+                 "percent (improvement over the raw output), _s seconds",
+    }
+
+
+def write_metrics(path: Path, doc: dict) -> None:
+    atomic_write_text(path, json.dumps(json_ready(doc), indent=2))

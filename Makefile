@@ -3,8 +3,9 @@ PY ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
+DOCS_STAMP := $(VENV)/.installed-docs
 
-.PHONY: run test test-all bench clean
+.PHONY: run test test-all bench docs clean
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -28,5 +29,18 @@ test-all: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/fogbench bench
 
+# The docs' own dependencies (the `docs` extra) go into the same .venv, on top of `.[test]`.
+$(DOCS_STAMP): $(STAMP)
+	$(BIN)/python -m pip install --quiet -e '.[docs]'
+	touch $(DOCS_STAMP)
+
+# The site into docs/_build/html. -E rereads every page, so a warning is never hidden by an
+# earlier build. DOCSFLAGS defaults to CI's: every warning fails the build (-W), all of them
+# reported (--keep-going); `make docs DOCSFLAGS=` shows warnings without failing, while writing.
+DOCSFLAGS ?= -W --keep-going
+
+docs: $(DOCS_STAMP)
+	$(BIN)/sphinx-build -E -q $(DOCSFLAGS) -b html docs docs/_build/html
+
 clean:
-	rm -rf $(VENV) build *.egg-info
+	rm -rf $(VENV) build *.egg-info docs/_build

@@ -78,7 +78,7 @@ known_warnings = [
     ("docstring of sim.rig.simulate_run", "target not found: Truth"),
     ("docstring of sim.motion.build_commands", "target not found: segment_commands"),
     # fogbench's command-line help, which sphinx-argparse reads as reStructuredText
-    # (fogbench/reallog/__init__.py, allan --curve: "adev_ci_low_/high_<unit>")
+    # (fogbench/cli/allan.py, allan --curve: "adev_ci_low_/high_<unit>")
     ("", 'Unknown target name: "adev_ci_low"'),
 ]
 # Two more are printed on stderr but are not Sphinx warnings, so they neither fail the build nor

@@ -47,6 +47,7 @@ html_static_path = []
 # an entry hides nothing in a full build (the text was fixed: remove the entry).
 sys.path.insert(0, os.path.abspath("_ext"))
 extensions.append("known_warnings")
+extensions.append("scenario_keys")   # the scenario keys' tables, from the validator
 
 # numpydoc's References sections whose entries the docstring's text never cites ("[1]_"):
 # Sphinx warns "Citation [R...-1] is not referenced" under a hash label that changes with the

@@ -203,10 +203,10 @@ def fog_json_schema() -> dict:
     calls = reads(10_000.0)
     # a bound that moves with the sample rate (e.g. a sensor rate at most the scenario's): its
     # limit is the scenario's, not the schema's
-    at_fs = {c[0] for c, d in zip(calls, reads(5_000.0)) if c != d}
+    at_fs = {c.key for c, d in zip(calls, reads(5_000.0)) if c != d}
     props: dict = {"source": {"type": "string", "description": "where the numbers come from"}}
     types = {"float": "number", "int": "integer", "str": "string", "bool": "boolean"}
-    for key, kind, lo, hi, lo_open, choices in calls:
+    for key, kind, lo, hi, lo_open, choices, *_ in calls:
         if key in ("preset", "device", "axes") or key in props:
             continue
         if key in _ANY_KEY_SCHEMAS:

@@ -8,11 +8,11 @@ from __future__ import annotations
 import math
 import tomllib
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 from fogbench.scenario.names import NAME_RULE, name_problem
 
-__all__ = ["ScenarioError"]
+__all__ = ["ScenarioError", "Read"]
 
 MAX_REPLICATES = 10_000
 
@@ -21,11 +21,27 @@ class ScenarioError(ValueError):
     """A scenario file is malformed; the message names the file, the key and what was expected."""
 
 
+class Read(NamedTuple):
+    """One key read by the validator: where (the table, as errors name it), the key, its kind
+    ('float', 'int', 'str', 'bool', 'floats', 'ints', 'strs', 'name', 'table', 'tables',
+    'any'), its range, its choices, and its default (``...``: required)."""
+
+    key: str
+    kind: str
+    lo: Any
+    hi: Any
+    lo_open: bool
+    choices: Any
+    where: str = ""
+    default: Any = ...
+
+
 class _Table:
     """A TOML table being read: tracks which keys were used, so the rest can be refused."""
 
-    #: When a list: every get() appends (key, kind, lo, hi, lo_open, choices) to it, so that the
-    #: validator itself declares the keys' schema (:func:`fog_json_schema`).
+    #: When a list: every get() appends a :class:`Read` to it, so that the validator itself
+    #: declares the keys' schema (:func:`~fogbench.scenario.device_file.fog_json_schema`,
+    #: :mod:`fogbench.scenario.schema`).
     recorder: list | None = None
 
     def __init__(self, data: dict, where: str, file: str):
@@ -45,7 +61,8 @@ class _Table:
         """Read ``key`` as ``kind``: 'float', 'int', 'str', 'bool', 'floats', 'strs', 'table',
         'tables'. Ranges are inclusive unless ``lo_open``."""
         if _Table.recorder is not None:
-            _Table.recorder.append((key, kind, lo, hi, lo_open, choices))
+            _Table.recorder.append(Read(key, kind, lo, hi, lo_open, choices, self.where,
+                                        default))
         self.used.add(key)
         if key not in self.data:
             if default is ...:

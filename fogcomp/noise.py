@@ -261,7 +261,7 @@ def _f_unit(kind, T, h, mi, mj, tau0):
     """f_ij(h) of one unit process (module docstring), shape of h: the sum over a, b in 0..2
     of C_a C_b g(|h + a mi - b mj|), g at the nine shifts in one call (this is the inner loop
     of the covariance basis) and summed in the order of that double loop, so that the result
-    is the loop's to the last bit (tests/test_noise.py keeps the loop as the twin)."""
+    is the loop's to the last bit (tests/fogcomp/test_noise.py keeps the loop as the twin)."""
     h = np.asarray(h, dtype=float)
     ab = [(a, b) for a in range(3) for b in range(3)]
     col = (9,) + (1,) * h.ndim

@@ -21,7 +21,7 @@ its replicates (the Monte Carlo tab)::
         --shot "reports/paper000_wnn:Monte Carlo:mc_paper000.png"
 
 The functions :func:`serve`, :func:`open_viewer`, :func:`wait_until_drawn`,
-:func:`show_tab` and :func:`viewer_errors` are used by ``tests/test_viewer_browser.py`` too.
+:func:`show_tab` and :func:`viewer_errors` are used by ``tests/recording/test_viewer_browser.py`` too.
 """
 
 from __future__ import annotations

@@ -108,3 +108,15 @@ def read_run(path):
 
     with np.load(path, allow_pickle=False) as z:
         return {k: z[k] for k in z.files}
+
+
+def run_parsed(argv):
+    """A command as the main CLI runs it, in this process: parse, call its function, a
+    ValueError as exit status 2 with its message; returns (status, message or None)."""
+    from fogbench.cli import build_parser
+
+    args = build_parser().parse_args([str(a) for a in argv])
+    try:
+        return args.func(args), None
+    except ValueError as exc:
+        return 2, str(exc)

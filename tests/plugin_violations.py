@@ -1,5 +1,5 @@
 """One planted violation of each rule of fogcomp.check_method, on the working plug-in
-``plugin_methods.MeanBias`` (tests/test_conformance.py)."""
+``plugin_methods.MeanBias`` (tests/fogcomp/test_conformance.py)."""
 
 from __future__ import annotations
 

@@ -9,7 +9,7 @@ and in how many of those its interval covers the configured value (a term the pr
 have counts as configured 0, so a spurious one is a miss). The g terms are compared with that
 power-on's values (the preset's plus its switch-on draw, paper004_gyro's 0.3 deg/h/g: one
 multi-position log measures its own power-on, not the spread). The issue's criterion: at least
-60 %. The thermal keys: ``tests/test_device.py`` (their fit is slower).
+60 %. The thermal keys: ``tests/device/test_device.py`` (their fit is slower).
 """
 
 from __future__ import annotations

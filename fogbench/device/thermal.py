@@ -180,7 +180,7 @@ def fit_thermal(log: ThermalLog, noise, ci: float) -> dict:
     z = float(norm.ppf(0.5 + joint / 2))
     (wX,) = white([LAG[i]])
     # collinearity of the weighted columns scaled to unit length: about 3 for the holds and
-    # ramps both ways of tests/test_device.py, 600 to 1e15 for a single ramp
+    # ramps both ways of tests/device/test_device.py, 600 to 1e15 for a single ramp
     if np.linalg.cond(wX / np.linalg.norm(wX, axis=0)) > MAX_CONDITION:
         raise ValueError(f"{log.name}: the temperature program cannot separate the terms (T, "
                          "T^2, dT/dt, T dT/dt: a single ramp moves T and dT/dt together); "

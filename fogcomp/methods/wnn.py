@@ -395,7 +395,7 @@ _CHUNK = 1024
 class _BatchLoss:
     """:func:`wnn_loss_and_grad` over the windows of one fitting record, for repeated calls.
 
-    The same loss and gradient, arranged for speed (issue 23; ``tests/test_wnn.py`` compares
+    The same loss and gradient, arranged for speed (issue 23; ``tests/fogcomp/methods/test_wnn.py`` compares
     the training it drives with the former implementation):
 
     * The Morlet's cos(w0 u) and sin(w0 u) come from one tangent of the half angle,
@@ -531,7 +531,7 @@ class WaveletNeuralNetwork(Compensator):
     n_hidden : int, default 11
         Hidden (Morlet) nodes l. The paper does not give l; 11 = 2k + 1 for k = 5 inputs
         (the Kolmogorov / Hecht-Nielsen rule for one hidden layer). On the narrowband test
-        error of ``tests/test_wnn.py`` (5 records), 6 nodes left about 20 % more error std,
+        error of ``tests/fogcomp/methods/test_wnn.py`` (5 records), 6 nodes left about 20 % more error std,
         16 or 24 nodes about 10 % less at 2-3 times the training time.
     n_inputs : int, default 5
         Consecutive raw samples per input window, k (paper: x_n .. x_n+4).
@@ -558,7 +558,7 @@ class WaveletNeuralNetwork(Compensator):
         Initial learning rate of the scales and translations a_j, b_j (paper's eta2; not given).
     eta3 : float, default 0.5
         Momentum factor (paper's eta3; not given). Defaults chosen by trial on the test
-        processes of ``tests/test_wnn.py``: over eta1 = eta2 in {0.01, 0.05, 0.2} and
+        processes of ``tests/fogcomp/methods/test_wnn.py``: over eta1 = eta2 in {0.01, 0.05, 0.2} and
         eta3 in {0, 0.5, 0.9}, momentum 0.5 was the most reliable; with the adaptive rule the
         initial rate matters little (0.05 and 0.2 were alike).
     lr_inc, lr_dec : float, default 1.05, 0.7
@@ -623,7 +623,7 @@ class WaveletNeuralNetwork(Compensator):
     -60 deg/s, the inputs are shifted by 30 deg/s divided by the fitting record's standard
     deviation). With ``"record"`` every record is standardised by its own statistics.
 
-    *What it does to real motion* (``tests/test_wnn.py``, measured): the target residual of a
+    *What it does to real motion* (``tests/fogcomp/methods/test_wnn.py``, measured): the target residual of a
     constant-rate record is close to ``x_n - (the record's level)``, which the network learns
     as a function of x_n. On a record compensated with ``"record"`` normalisation, the output
     is then close to the record's own mean for every sample: a block mean over the record. A

@@ -128,7 +128,7 @@ def test_trained_methods_come_close_to_the_least_squares_projection(name):
     """The networks see T and dT/dt; the temperature part of this record's error is linear in
     them, so their in-sample estimate should come close to the least-squares projection on
     (1, T, dT/dt). Stated: within 25 % of the error's RMS of it. (flnn's every-sample LMS does
-    not: see tests/test_flnn.py, misadjustment.)"""
+    not: see tests/fogcomp/methods/test_flnn.py, misadjustment.)"""
     data, truth = record()
     err = data.rate - truth
     X = _regressors("poly_temp", data, truth)

@@ -1,4 +1,4 @@
-"""Views that show the effect (issue 26): the PNG time series, PSD and Allan figures of
+"""Views that show the effect: the PNG time series, PSD and Allan figures of
 fogbench/report/__init__.py draw a sweep as an envelope (its default marked), at most 8 lines a panel with
 legends outside the data, the methods' errors zoomed to them with raw in a panel of its own when
 it dwarfs them, what every output keeps alike taken out; Allan and PSD figures are left out (not

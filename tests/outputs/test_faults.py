@@ -1,4 +1,4 @@
-"""Faults that once got through (issue 18), one test (or more) per case, each asserting the exit
+"""Faults that once got through, one test (or more) per case, each asserting the exit
 status, the one-line message and what is left on disk.
 
 1. an engine address that answers but is not a Dask scheduler; an unreachable one with one
@@ -34,7 +34,7 @@ import pytest
 
 from helpers import SMALL_SCENARIO, run_cli
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 CLI = [sys.executable, "-m", "fogbench"]
 
 

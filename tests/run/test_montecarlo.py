@@ -1,4 +1,4 @@
-"""Monte Carlo over replicates (issue 10): a replicate's numbers depend only on the scenario and
+"""Monte Carlo over replicates: a replicate's numbers depend only on the scenario and
 its index (never on the engine, the number of workers, the order, or what ran before), the work
 is resumable, failures are counted, and the aggregate states its intervals and verdicts."""
 
@@ -252,7 +252,7 @@ def test_a_scenario_edited_during_the_run_is_not_mixed_in(scn):
 
 
 # ---------------------------------------------------------------------------------------------
-# Claims between two seeded methods, over their method starts (issue 12)
+# Claims between two seeded methods, over their method starts
 def test_p_better_is_the_mann_whitney_probability():
     """P(a start of A beats a start of B) against scipy's Mann-Whitney U / (K_a K_b), ties
     included, for both directions of 'better'."""

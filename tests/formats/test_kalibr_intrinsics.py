@@ -1,4 +1,4 @@
-"""Ferraris intrinsics in Kalibr's and OpenVINS' conventions (fogbench.formats.kalibr, issue 25).
+"""Ferraris intrinsics in Kalibr's and OpenVINS' conventions (fogbench.formats.kalibr).
 
 Each test builds a calibration with known parameters, converts it, loads the written YAML with
 PyYAML and applies the tool's own measurement model to it, written out here from the tools'
@@ -335,7 +335,8 @@ def _calibrated_session(tmp_path):
     compensate: the same session in physical units, which a calibration of its own must find
     already calibrated (scale factors 1, no misalignment, no g-sensitivity, no bias)."""
     from helpers import need_realdata
-    from test_reallog import REAL, run
+    from helpers import realdata_dir, run_parsed as run
+    REAL = realdata_dir()
 
     session = REAL / "imucal_ferraris" / "annotated_session.csv"
     need_realdata(session)
@@ -375,7 +376,8 @@ def test_calibrate_ferraris_writes_tool_files_that_a_calibrated_session_finds_id
 
 def test_calibrate_ferraris_tool_files_are_refused_for_raw_counts_and_other_methods(tmp_path):
     from helpers import need_realdata
-    from test_reallog import REAL, run
+    from helpers import realdata_dir, run_parsed as run
+    REAL = realdata_dir()
 
     session = REAL / "imucal_ferraris" / "annotated_session.csv"
     need_realdata(session)

@@ -1,6 +1,6 @@
 """The bench never destroys or escapes: a user's files stay byte-identical whatever --out or a
 scenario's names say, bad input is refused before any work with file, key and reason, and an
-interrupted command leaves no temporary folders behind (issue 9)."""
+interrupted command leaves no temporary folders behind."""
 
 from __future__ import annotations
 
@@ -21,7 +21,7 @@ from fogbench.outputs.folders import MARKER
 from fogbench.scenario import ScenarioError, load_plan, load_scenario
 from fogbench.scenario.load import RUNNER_SECTIONS
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def snapshot(root: Path) -> dict[str, str]:

@@ -13,7 +13,7 @@ from fogbench.scenario import ScenarioError, load_scenario
 from fogbench.scenario.load import RUNNER_SECTIONS
 from fogbench.scenario.schema import keys_by_section, section_of
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 BASE = """[scenario]
 name = "s"
 sample_rate_hz = 100.0

@@ -12,7 +12,7 @@ import pytest
 from fogcomp import units as U
 from fogbench.scenario import ScenarioError, load_scenario
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 GOOD = """
 [scenario]
@@ -100,7 +100,7 @@ BAD = [
                          'headings_deg = [0.0]\nmove_s = 1.0\ndwell_s = 1.0'),
      ["move_s", "takes"]),
     (lambda t: t + '\n[scenario2\n', ["not valid TOML"]),
-    # the device's thermal build and range (issue 11)
+    # the device's thermal build and range
     (lambda t: t.replace('[fog]', '[fog]\nrange_dps = 0.0'), ["range_dps", "> 0"]),
     (lambda t: t.replace('[fog]', '[fog]\ntemp_sensor_location = "case"'),
      ["temp_sensor_location", "housing"]),

@@ -1,4 +1,4 @@
-"""One figure per claim, and a report that opens on its verdicts (issue 26).
+"""One figure per claim, and a report that opens on its verdicts.
 
 A small scenario with three claims (a two-sided range, one between two methods that draw random
 starts, one on a single run) is run through ``fogbench run``. Checked against what the run

@@ -1,4 +1,4 @@
-"""Claim maps (issue 20): a point of a scenario's [map] is the scenario with only the values it
+"""Claim maps: a point of a scenario's [map] is the scenario with only the values it
 names changed (the other keys and every seed held), its verdicts are those of a plain scenario
 file written with those values, bad maps are refused before any work, the filter oracle is the
 generalised least-squares estimate, and paper 004's two-way centrifuge recovers the coefficients
@@ -25,7 +25,7 @@ from fogbench.scenario.load import RUNNER_SECTIONS
 from fogbench.scenario import ScenarioError, load_plan, load_scenario
 from sim.rig import simulate_run
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 MAPPED = ["paper000_wnn", "paper002_acobp", "paper004_flnn"]
 
 

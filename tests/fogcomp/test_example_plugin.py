@@ -17,7 +17,7 @@ import pytest
 
 from helpers import SMALL_SCENARIO
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 PACKAGE = ROOT / "examples" / "fogcomp-ar"
 FOGBENCH = Path(sys.executable).with_name("fogbench")
 

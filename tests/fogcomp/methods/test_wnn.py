@@ -444,10 +444,10 @@ def test_validate_refuses_every_bad_hyperparameter_without_data(kwargs, name):
 
 
 # ---------------------------------------------------------------------------------------------
-# Issue 23: the fast batch training against the implementation it replaced
+# The fast batch training against the implementation it replaced
 def _reference_loss_grad_t(Xs, t, W, w_out, a, b, w0):
     """Batch loss and gradient as ``fogcomp.methods.wnn._loss_grad_t`` computed them before
-    issue 23 (copied verbatim): one pass over all windows, exp, cos and sin evaluated
+    its speed-up (copied verbatim): one pass over all windows, exp, cos and sin evaluated
     separately, in the (hidden, samples) layout."""
     n = t.shape[0]
     u = (W / a).T @ Xs
@@ -478,7 +478,7 @@ def _reference_loss_grad_t(Xs, t, W, w_out, a, b, w0):
 
 
 def _reference_train(self, Xs, t, params, loss_grad_t=None):
-    """``WaveletNeuralNetwork._train`` before issue 23 (copied, divergence check left out),
+    """``WaveletNeuralNetwork._train`` before its speed-up (copied, divergence check left out),
     on :func:`_reference_loss_grad_t` or ``loss_grad_t``."""
     loss_grad_t = loss_grad_t or _reference_loss_grad_t
     eta1, eta2, eta3 = float(self.eta1), float(self.eta2), float(self.eta3)
@@ -597,7 +597,7 @@ def test_fast_training_with_default_rates_is_within_the_former_rounding(monkeypa
 
 
 def _reference_auto_level_criterion(x):
-    """:func:`auto_level`'s criterion before issue 23 (copied): one periodogram per level,
+    """:func:`auto_level`'s criterion before its speed-up (copied): one periodogram per level,
     the octave bands by boolean masks."""
     from scipy import signal
 

@@ -14,7 +14,7 @@ from fogbench.scenario.load import RUNNER_SECTIONS
 from fogbench.scenario import ScenarioError, load_plan, load_scenario
 from fogbench.run.suite import run_suite
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 @register
@@ -173,7 +173,7 @@ def test_run_writes_metrics_report_and_figures_from_a_clean_directory(tmp_path):
     r = subprocess.run([sys.executable, "-m", "fogbench", "run", str(p), "--out", str(out),
                         "--no-recording", "--quiet"], capture_output=True, text=True, cwd=ROOT,
                        env={**__import__("os").environ,
-                            "PYTHONPATH": f"{ROOT}:{Path(__file__).parent}"})
+                            "PYTHONPATH": f"{ROOT}:{Path(__file__).resolve().parents[1]}"})
     # the diverging method is registered only in this test process, so the subprocess
     # refuses the scenario: run it in-process instead
     assert r.returncode == 2 and "unknown method 'test_always_diverges'" in r.stderr
@@ -243,16 +243,16 @@ def test_suite_check_fails_on_a_broken_method_and_passes_otherwise(tmp_path, cap
 
 def _suite_holds_its_bounds(out, only_ci: bool):
     """A short Monte Carlo (2 replicates) of the bundled scenarios, checked against their
-    declared bounds (issue 10). The bounds come from the configured devices and the methods'
+    declared bounds. The bounds come from the configured devices and the methods'
     "no worse than raw" rules, not from the code's output, so a regression in the simulator, a
     method or the scoring makes this fail. No figures (`--no-figures`): they were half of its
     time, and a figure that cannot be drawn is a note in the report, never a failure, so they
-    checked nothing here; tests/test_report_*.py and test_claim_figures.py draw them."""
+    checked nothing here; tests/report/test_report_*.py and test_claim_figures.py draw them."""
     docs = [tomllib.loads(p.read_text()) for p in (ROOT / "scenarios").glob("*.toml")]
     names = sorted(d["scenario"]["name"] for d in docs
                    if not only_ci or d.get("compensation", {}).get("ci"))
     assert names, "no scenario files in scenarios/"
-    # the claim maps' points are left out here (tests/test_maps.py runs maps)
+    # the claim maps' points are left out here (tests/run/test_maps.py runs maps)
     r = subprocess.run([sys.executable, "-m", "fogbench", "suite", "--replicates", "2",
                         "--check", "--no-recording", "--no-figures", "--no-map", "--quiet",
                         "--out", str(out)]
@@ -293,7 +293,7 @@ def test_claim_verdicts_state_agreement_with_the_numbers():
     claim = Claim("m removes 70-80 %", "paper", "x_dph", "m", "raw", 70.0, 80.0)
     plan = Plan((), (), (), (), "z", claims=(claim,))
     (v,) = claim_verdicts(plan, doc)
-    # one replicate is one draw: never a verdict (issue 10), but the numbers and where they fall
+    # one replicate is one draw: never a verdict, but the numbers and where they fall
     assert "+75.0 %" in v and "this one draw within it" in v and "r2: 0.5 vs 2" in v
     assert "**inconclusive**" in v
     plan = Plan((), (), (), (), "z", claims=(Claim("m removes 80 %+", "paper", "x_dph", "m",

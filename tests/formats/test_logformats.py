@@ -16,7 +16,7 @@ import pytest
 
 from fogbench.formats.table import read_log
 
-from test_reallog import run
+from helpers import run_parsed as run
 
 FS = 200.0
 T0_NS = 1403636579758555392       # a EuRoC MH_01 stamp: 1.4e18 ns, past float64's exact range
@@ -488,7 +488,7 @@ def test_a_pipe_is_refused_not_read_whatever_the_format(tmp_path, fmt):
 
 
 # ---------------------------------------------------------------------------------------------
-# Review findings (issue 25): a PX4 log's topics at the rates PX4's logger writes them, a EuRoC
+# Review findings: a PX4 log's topics at the rates PX4's logger writes them, a EuRoC
 # header with a field fogbench does not know, gzip-compressed ULog / MCAP, a truncated ULog
 SENSOR_GYRO = (("uint64_t timestamp;uint64_t timestamp_sample;uint32_t device_id;float x;"
                 "float y;float z;float temperature;uint32_t error_count;"), "<QQIffffI")

@@ -1,4 +1,4 @@
-"""A fuzzer for the scenario loader (issue 9): mutants of valid scenario files are either loaded
+"""A fuzzer for the scenario loader: mutants of valid scenario files are either loaded
 or refused with exit status 2 and one line naming the file; never a traceback, and nothing is
 written anywhere (``fogbench check``); the slow variant also simulates the loadable mutants of a
 small scenario into a scratch ``--out`` and checks nothing lands outside it."""
@@ -14,7 +14,7 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 
 from helpers import SMALL_SCENARIO, run_cli
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SEEDS = {p.name: p.read_text() for p in sorted((ROOT / "scenarios").glob("*.toml"))}
 SEEDS["small.toml"] = SMALL_SCENARIO
 

@@ -1,4 +1,4 @@
-"""The lab's references (sim/lab.py) against the truth and against the algebra, issue 24.
+"""The lab's references (sim/lab.py) against the truth and against the algebra.
 
 Each expected value is computed by hand here from the Earth rate (WGS-84 Omega), the latitude,
 the heading and the positions, not from sim/lab.py's formulas: a perfect, settled table's lab
@@ -317,7 +317,7 @@ def test_the_bundled_lab_scenario_books_the_heading_error_as_bias_as_computed_by
     from fogbench.run.runner import run_scenario
     from fogcomp.units import DPH
 
-    text = (Path(__file__).resolve().parents[1] / "scenarios" / "lab_references.toml"
+    text = (Path(__file__).resolve().parents[2] / "scenarios" / "lab_references.toml"
             ).read_text()
     second = text.index("[[runs]]", text.index("[[runs]]") + 1)
     assert 'name = "switch_on_2"' in text[second:text.index("[compensation]")]
@@ -471,7 +471,7 @@ def test_reference_lab_is_written_into_a_file_whose_protocols_are_inline_tables(
         "lab": "lab", "ideal": "truth", "lab.ideal": "truth"}
 
 
-# --- the table's rate error beyond its servo, and the accelerometer triad (issue 24) ----------
+# --- the table's rate error beyond its servo, and the accelerometer triad ----------
 
 UG = 1e-6                       # g per ug
 

@@ -12,7 +12,7 @@ shows (tab Overview, as the recording opens), that the error view is not empty (
 lines, not the background alone) and that the temperature view opens on the whole run (the
 traces of the longest run span the plot's width).
 
-Run it with ``.venv/bin/python -m pytest -m browser tests/test_viewer_browser.py`` (needs
+Run it with ``.venv/bin/python -m pytest -m browser tests/recording/test_viewer_browser.py`` (needs
 ``apt-get install chromium`` and ``pip install playwright``).
 """
 
@@ -25,7 +25,7 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
 

@@ -13,24 +13,14 @@ import numpy as np
 import pytest
 
 from fogbench.formats.errors import LogError
-from fogbench.cli import build_parser
 
 DEG = math.pi / 180.0
 
 
-from helpers import need_realdata, realdata_dir as _realdata_dir
+from helpers import need_realdata, realdata_dir as _realdata_dir, run_parsed as run  # noqa: E402
 
 
 REAL = _realdata_dir()
-
-
-def run(argv):
-    """What the main CLI does: parse, call func, turn a ValueError into exit code 2."""
-    args = build_parser().parse_args([str(a) for a in argv])
-    try:
-        return args.func(args), None
-    except ValueError as exc:
-        return 2, str(exc)
 
 
 # ---------------------------------------------------------------------------------------------

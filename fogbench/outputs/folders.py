@@ -289,6 +289,18 @@ def _named(exc: OSError, path) -> OSError:
     return named(exc, path)
 
 
+def _identity(path: Path) -> tuple | None:
+    """What a path is now: None when nothing is there, else (device, inode, size, modification
+    time in ns) of the entry itself (a symbolic link not followed)."""
+    try:
+        st = os.lstat(path)
+    except FileNotFoundError:
+        return None
+    except OSError:
+        return ("unreadable",)
+    return (st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns)
+
+
 def _same_file(a, b) -> bool:
     a, b = Path(a), Path(b)
     try:
@@ -329,6 +341,9 @@ class Outputs:
         self.pending: list[tuple[str, Path]] = []
         self.created: list[Path] = []   # folders made for the outputs: removed if it fails
         self.claimed: dict[Path, str] = {}   # every output path checked, and the flag naming it
+        #: what each output path was when it was checked (None: absent): the file replaced at
+        #: the end must still be that one (:meth:`commit`)
+        self.seen: dict[Path, tuple | None] = {}
 
     def _claim(self, path: Path, flag: str) -> None:
         """Refuse two options naming one output file (the later write would replace the
@@ -372,6 +387,7 @@ class Outputs:
                                f"choose another {flag}")
             if not self.overwrite:
                 raise OutDirError(f"{path}: exists; not replaced (--overwrite replaces it)")
+        self.seen[path] = _identity(path)
         return path
 
     def folder(self, path: Path, protect: tuple = (), *, marker: str, recognise,
@@ -410,6 +426,8 @@ class Outputs:
                 raise OutDirError(f"{path / existing[0]}: exists; not replaced (--overwrite "
                                "replaces the outputs of fogbench "
                                f"{self.command} in {path})")
+        for p in paths.values():
+            self.seen[p] = _identity(p)
         return paths
 
     def _mkdirs(self, folder: Path) -> None:
@@ -470,19 +488,53 @@ class Outputs:
         return final
 
     def commit(self) -> None:
-        """Rename every output into place (none after Ctrl-C or SIGTERM)."""
+        """Put every output in place (none after Ctrl-C or SIGTERM), never over a file that is
+        not the one checked before the work: an output that was absent is created exclusively
+        (a hard link of the temporary file, which fails if anything took its name meanwhile),
+        and one that existed is replaced only while it is still that file (same inode, size
+        and modification time). Created ones are put in place first, so a refusal among them
+        takes back what this call created and leaves every other file as it was."""
         check_signals()
         umask = os.umask(0)
         os.umask(umask)
         for tmp, path in self.pending:
+            if _identity(path) != self.seen.get(path, _identity(path)):
+                raise self._changed(path)
+        before = {p: self.seen.get(p, _identity(p)) for _, p in self.pending}
+        new = [(t, p) for t, p in self.pending if before[p] is None]
+        old = [(t, p) for t, p in self.pending if before[p] is not None]
+        linked: list[Path] = []
+        for tmp, path in new:
             try:
                 os.chmod(tmp, 0o666 & ~umask)
+                os.link(tmp, path)
+            except FileExistsError:
+                for q in linked:
+                    os.unlink(q)
+                raise self._changed(path) from None
+            except OSError as exc:
+                for q in linked:
+                    os.unlink(q)
+                raise _named(exc, path) from None
+            linked.append(path)
+        for tmp, path in new:
+            os.unlink(tmp)
+        for tmp, path in old:
+            try:
+                os.chmod(tmp, 0o666 & ~umask)
+                if _identity(path) != before[path]:
+                    raise self._changed(path)
                 os.replace(tmp, path)
             except OSError as exc:
                 raise _named(exc, path) from None
         self.pending.clear()
         self._remove_created(only_empty=True)
         self.created = [d for d in self.created if d.exists()]
+
+    def _changed(self, path: Path) -> OutDirError:
+        return OutDirError(f"{path}: appeared or changed while fogbench {self.command} ran; "
+                           "it was left as it is and nothing was written. Run the command again "
+                           "(or give another output path)")
 
     def _remove_created(self, only_empty: bool) -> None:
         import shutil

@@ -75,6 +75,9 @@ def _dispatch(argv) -> int | None:
         args = build_parser().parse_args(argv)
         # read by load_scenario/load_plan here (and sent with each replicate to its worker)
         with method_environment_set({**inherited(), **method_environment(args)}):
+            from fogbench.scenario.environment import reference_override
+
+            reference_override()     # a FOGBENCH_REFERENCE of the shell checked before any work
             return args.func(args)
     except ValueError as exc:  # ScenarioError, LogError, EngineError, ...: bad input
         _error_line(exc, str(exc))

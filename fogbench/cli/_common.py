@@ -7,7 +7,6 @@ from __future__ import annotations
 import argparse
 import math
 from dataclasses import fields
-from pathlib import Path
 
 __all__ = ["number", "add_mc_flags", "add_log_flags", "engine", "cluster_options",
            "method_environment", "options"]
@@ -72,14 +71,12 @@ def cluster_options(path: str) -> dict:
     """The ``[cluster]`` table of a TOML config file (queue, cores, memory, walltime...)."""
     import tomllib
 
-    from fogbench.scenario.tables import decode_text
+    from fogbench.scenario.tables import ScenarioError, read_text
 
-    p = Path(path)
     try:
-        text = decode_text(p.read_bytes(), str(p))
-        doc = tomllib.loads(text)
-    except OSError as exc:
-        raise ValueError(f"--cluster-config {path}: cannot read ({exc.strerror})") from None
+        doc = tomllib.loads(read_text(path, "cluster config file"))
+    except ScenarioError as exc:
+        raise ValueError(f"--cluster-config {exc}") from None
     except tomllib.TOMLDecodeError as exc:
         raise ValueError(f"--cluster-config {path}: not valid TOML ({exc})") from None
     if set(doc) != {"cluster"} or not isinstance(doc["cluster"], dict):

@@ -240,9 +240,7 @@ def load_device_file(path, fs: float | None = None) -> dict:
     scenario's sample rate (the checks that need it: the flicker band below Nyquist); None
     checks at the highest rate a scenario may have."""
     file = str(path)
-    if Path(path).is_dir():
-        raise ScenarioError(f"{file}: is a directory, expected a device file (TOML)")
-    doc = _read_toml(path)
+    doc = _read_toml(path, "device file")
     for k in DEVICE_FILE_REFUSED:
         if k in doc:
             raise ScenarioError(f"{file}: key '{k}': a device file holds the device's own keys "

@@ -52,8 +52,13 @@ def method_environment_set(env: dict):
 
 
 def reference_override() -> str | None:
-    """``--reference``'s value ("lab" or "truth"), None when not given (``REFERENCE_ENV``)."""
-    return os.environ.get(REFERENCE_ENV) or None
+    """``--reference``'s value ("lab" or "truth"), None when not given (``REFERENCE_ENV``); any
+    other value of the variable is refused (a ``ValueError`` naming it), never ignored."""
+    v = os.environ.get(REFERENCE_ENV) or None
+    if v is not None and v not in ("lab", "truth"):
+        raise ValueError(f"environment variable {REFERENCE_ENV}={v!r}: expected 'lab' or "
+                         "'truth' (what --reference sets); unset it or give --reference")
+    return v
 
 
 def with_methods() -> list[str]:

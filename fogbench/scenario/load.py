@@ -17,7 +17,7 @@ from fogbench.scenario.device_file import _fog
 from fogbench.scenario.environment import reference_override, with_methods
 from fogbench.scenario.overrides import apply_overrides
 from fogbench.scenario.rig import _check_size, _check_whole_samples, _motion, _table_cfg, _thermal
-from fogbench.scenario.tables import ScenarioError, _Table, decode_text
+from fogbench.scenario.tables import ScenarioError, _Table, read_text
 from sim.fog import FogParams
 from sim.motion import Positions, positions_move_fits
 from sim.rate_table import TableConfig
@@ -181,13 +181,7 @@ def _with_references(text: str, which: list[int], names: list[str], value: str) 
 def _read_doc(path: Path) -> tuple[str, dict]:
     """(text, parsed document) of a scenario file; a ScenarioError names what is wrong."""
     file = str(path)
-    try:
-        if path.is_dir():
-            raise ScenarioError(f"{file}: is a directory, expected a scenario file (TOML)")
-        raw = path.read_bytes()
-    except OSError as exc:
-        raise ScenarioError(f"{file}: cannot read ({exc.strerror})") from None
-    text = decode_text(raw, file)
+    text = read_text(path)
     try:
         return text, tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -230,7 +224,7 @@ def _with_device_text(text: str, path: Path, device) -> str:
     if not isinstance(device, str):
         return text
     dpath = path.parent / device
-    draw = decode_text(dpath.read_bytes(), str(dpath))
+    draw = read_text(dpath, "device file")
     return text + (f"\n# [fog] device = {json.dumps(device)}: that file's text, as this run "
                    f"read it (sha256 {hashlib.sha256(draw.encode()).hexdigest()}):\n"
                    + "".join(f"#   {ln}\n" for ln in draw.splitlines()))

@@ -403,6 +403,12 @@ def load_plan(sc: Scenario) -> Plan:
     claims = _claims(extra, file, known, names)
     replicates, method_seeds, mc_seed = _montecarlo(extra, file)
     lab = _lab_knowledge(_Table(extra.get("lab", "table", {}), "[lab]", file))
+    if lab is not None and abs(sc.table.latitude + lab.latitude_error) > math.pi / 2 + 1e-12:
+        raise ScenarioError(
+            f"{file}: [lab] key 'latitude_error_deg': the lab would believe a latitude of "
+            f"{math.degrees(sc.table.latitude + lab.latitude_error):g} deg ([table] "
+            f"latitude_deg {math.degrees(sc.table.latitude):g} plus this error); a latitude is "
+            "within -90 to 90")
     if lab is not None and not any(p.reference == "lab" for p in protocols):
         raise extra.err("lab", "no protocol has reference = \"lab\": the [lab] keys would "
                         "change nothing")

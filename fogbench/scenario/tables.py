@@ -6,8 +6,8 @@ schema (:func:`fogbench.scenario.device_file.fog_json_schema`). Also the reading
 from __future__ import annotations
 
 import math
+import os
 import tomllib
-from pathlib import Path
 from typing import Any, NamedTuple
 
 from fogbench.scenario.names import NAME_RULE, name_problem
@@ -170,13 +170,43 @@ def decode_text(raw: bytes, file: str) -> str:
                             f"0x{raw[exc.start]:02x}); save the file as UTF-8") from None
 
 
-def _read_toml(path) -> dict:
+#: The largest scenario, map or device file read, bytes: the largest bundled one is 40 kB;
+#: beyond this a file is not one a person wrote (a log given by mistake, a device node).
+MAX_FILE_BYTES = 4 * 2**20
+
+
+def read_text(path, what: str = "scenario file") -> str:
+    """The text of a TOML input: a regular file (not a folder, pipe or device, which could
+    block or never end) of at most :data:`MAX_FILE_BYTES`, in UTF-8; refused naming it."""
+    import stat
+
     file = str(path)
     try:
-        raw = Path(path).read_bytes()
+        st = os.stat(path)
     except OSError as exc:
         raise ScenarioError(f"{file}: cannot read ({exc.strerror})") from None
+    if stat.S_ISDIR(st.st_mode):
+        raise ScenarioError(f"{file}: is a directory, expected a {what} (TOML)")
+    if not stat.S_ISREG(st.st_mode):
+        raise ScenarioError(f"{file}: not a regular file (a pipe, device or socket); expected "
+                            f"a {what} (TOML)")
+    if st.st_size > MAX_FILE_BYTES:
+        raise ScenarioError(f"{file}: {st.st_size / 2**20:.1f} MiB, larger than any {what} "
+                            f"({MAX_FILE_BYTES / 2**20:g} MiB at most); is it the right file?")
     try:
-        return tomllib.loads(decode_text(raw, file))
+        with open(path, "rb") as f:
+            raw = f.read(MAX_FILE_BYTES + 1)
+    except OSError as exc:
+        raise ScenarioError(f"{file}: cannot read ({exc.strerror})") from None
+    if len(raw) > MAX_FILE_BYTES:   # it grew while being read
+        raise ScenarioError(f"{file}: larger than any {what} ({MAX_FILE_BYTES / 2**20:g} MiB "
+                            "at most)")
+    return decode_text(raw, file)
+
+
+def _read_toml(path, what: str = "scenario file") -> dict:
+    file = str(path)
+    try:
+        return tomllib.loads(read_text(path, what))
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError(f"{file}: not valid TOML ({exc})") from None

@@ -1,0 +1,92 @@
+"""Inputs read with a bound: a device file that is a device node or a named pipe, an oversized
+file, a FOGBENCH_REFERENCE that is not a value of --reference, a lab that believes a latitude
+beyond the pole: each refused before any work with one line naming it, nothing written."""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+
+import pytest
+
+from helpers import run_cli
+
+SCENARIO = """[scenario]
+name = "s"
+sample_rate_hz = 100.0
+[table]
+latitude_deg = {lat}
+[fog]
+{fog}
+[[runs]]
+name = "a"
+seed = 1
+[[runs.motion]]
+type = "rate"
+duration_s = 1.0
+rate_dps = 10.0
+[[protocols]]
+name = "p"
+fit = [{{ run = "a", end_s = 0.5 }}]
+score = [{{ run = "a", start_s = 0.5 }}]
+{lab}
+[[methods]]
+name = "model_lstsq"
+"""
+
+
+def _write(tmp_path, fog='preset = "tactical"', lat=45.0, lab=""):
+    p = tmp_path / "s.toml"
+    p.write_text(SCENARIO.format(fog=fog, lat=lat, lab=lab))
+    return p
+
+
+def _listing(d):
+    return sorted(str(q.relative_to(d)) for q in d.rglob("*"))
+
+
+@pytest.mark.parametrize("device", ["/dev/zero", "fifo"])
+def test_a_device_file_that_is_not_a_regular_file_is_refused_at_once(tmp_path, device):
+    if device == "fifo":
+        device = str(tmp_path / "fifo")
+        os.mkfifo(device)               # opening it would wait for a writer for ever
+    p = _write(tmp_path, fog=f'device = "{device}"')
+    before = _listing(tmp_path)
+    t0 = time.monotonic()
+    code, out, err = run_cli("run", p, "--out", tmp_path / "run", "--quiet")
+    assert code == 2 and time.monotonic() - t0 < 30
+    assert err.strip().splitlines()[-1] == (
+        f"fogbench: error: {p}: [fog] key 'device': '{device}' ({device}): {device}: not a "
+        "regular file (a pipe, device or socket); expected a device file (TOML)")
+    assert _listing(tmp_path) == before
+
+
+def test_an_oversized_scenario_file_is_refused_before_it_is_read(tmp_path):
+    p = tmp_path / "big.toml"
+    with open(p, "wb") as f:
+        f.truncate(5 * 2**20)
+    code, _, err = run_cli("check", p)
+    assert code == 2
+    assert "larger than any scenario file" in err and str(p) in err
+
+
+def test_a_reference_variable_that_is_not_a_flag_value_is_refused(tmp_path, monkeypatch):
+    p = _write(tmp_path)
+    monkeypatch.setenv("FOGBENCH_REFERENCE", "Lab")
+    code, _, err = run_cli("run", p, "--out", tmp_path / "run", "--quiet")
+    assert code == 2
+    assert "FOGBENCH_REFERENCE='Lab': expected 'lab' or 'truth'" in err
+    assert not (tmp_path / "run").exists()
+    monkeypatch.setenv("FOGBENCH_REFERENCE", "lab")    # a right value is taken
+    code, _, err = run_cli("check", p)
+    assert code == 0, err
+
+
+def test_a_lab_believing_a_latitude_beyond_the_pole_is_refused(tmp_path):
+    p = _write(tmp_path, lat=89.0, lab='[lab]\nlatitude_error_deg = 5.0\n')
+    code, _, err = run_cli("check", p)
+    assert code == 2
+    assert "[lab] key 'latitude_error_deg': the lab would believe a latitude of 94 deg" in err
+    ok = _write(tmp_path, lat=89.0, lab='[lab]\nlatitude_error_deg = -5.0\n')
+    assert run_cli("check", ok)[0] == 0

@@ -91,6 +91,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import minimize, nnls
 
+from ._stats import ONE_SIGMA_CI
 from .units import ARCSEC, DEG_RT_H, DPH, DPH_PER_H, DPH_RT_H
 
 __all__ = ["LINEAR_TERMS", "TERM_NAMES", "avar_term", "avar_gm", "avar_model", "avar_covariance",
@@ -1205,8 +1206,6 @@ def identify_noise_model(taus, avar, fs: float, n, *, model=None, ci: float | No
     NoiseModel
     """
     from scipy.stats import chi2, norm
-
-    from .allan import ONE_SIGMA_CI
 
     ci = ONE_SIGMA_CI if ci is None else ci
     if not (isinstance(ci, (int, float)) and 0.0 < ci < 1.0):

@@ -8,6 +8,7 @@ with ``ast`` (every import, at any depth: a lazy import inside a function counts
 from __future__ import annotations
 
 import ast
+import itertools
 import sys
 from pathlib import Path
 
@@ -105,3 +106,108 @@ def test_every_package_directory_is_installed():
     found = {".".join(p.parent.relative_to(ROOT).parts)
              for top in ("sim", "fogcomp", "fogbench") for p in (ROOT / top).rglob("__init__.py")}
     assert found == listed
+
+
+def modules_of(package: str) -> dict[str, Path]:
+    """``{module name: file}`` of ``package`` and its subpackages (a package is its
+    ``__init__``)."""
+    files = {}
+    for path in sorted((ROOT / package).rglob("*.py")):
+        parts = path.relative_to(ROOT).with_suffix("").parts
+        files[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
+    return files
+
+
+def module_graph(package: str) -> dict[str, dict[str, int]]:
+    """``{module: {imported module of the same package: line}}`` for every module of
+    ``package``, every import at any depth (a lazy import inside a function counts), relative
+    ones resolved. An imported name is charged to the longest module path it starts with:
+    ``from .noise import avar_gm`` is an import of ``noise`` (its ``__init__`` when it is a
+    package), ``from . import methods`` one of ``methods``."""
+    files = modules_of(package)
+    graph = {}
+    for me, path in files.items():
+        graph[me] = {}
+        for line, mod in imports_of(path):
+            parts = mod.split(".")
+            target = next((".".join(parts[:k]) for k in range(len(parts), 0, -1)
+                           if ".".join(parts[:k]) in files), None)
+            if target is not None and target != me:
+                graph[me].setdefault(target, line)
+    return graph
+
+
+def import_cycles(package: str) -> list[str]:
+    """Each set of modules of ``package`` that import one another in a ring (a strongly
+    connected component of the import graph with more than one module), written as its
+    shortest ring through its first module, with the line of each import:
+    ``fogcomp.allan (fogcomp/allan.py:616) -> fogcomp.noise (...) -> fogcomp.allan``."""
+    graph, files = module_graph(package), modules_of(package)
+    index, low, stack, comps = {}, {}, [], []
+
+    def connect(v):                      # Tarjan's strongly connected components
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        for w in graph[v]:
+            if w not in index:
+                connect(w)
+                low[v] = min(low[v], low[w])
+            elif w in stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = stack[stack.index(v):]
+            del stack[stack.index(v):]
+            comps.append(set(comp))
+
+    for v in sorted(graph):
+        if v not in index:
+            connect(v)
+    out = []
+    for comp in (c for c in comps if len(c) > 1):
+        start = min(comp)
+        came = {w: start for w in sorted(graph[start]) if w in comp}
+        queue = list(came)               # breadth first, inside the component, back to start
+        while start not in came:
+            v = queue.pop(0)
+            for w in sorted(graph[v]):
+                if w in comp and w not in came:
+                    came[w] = v
+                    queue.append(w)
+        ring = [start]
+        while ring[-1] != start or len(ring) == 1:
+            ring.append(came[ring[-1]])
+        ring.reverse()
+        hops = [f"{a} ({files[a].relative_to(ROOT)}:{graph[a][b]})"
+                for a, b in itertools.pairwise(ring)]
+        out.append(" -> ".join(hops + [start]) + f"  [ring of {sorted(comp)}]")
+    return sorted(out)
+
+
+@pytest.mark.parametrize("package", ["fogcomp", "sim"])
+def test_no_import_cycles(package):
+    """No module of the library (or of the rig) imports, directly or through others, a module
+    that imports it back: each module has a place in one order, the lower ones never needing
+    the higher. A lazy import inside a function counts: it hides the ring from Python at import
+    time, not from a reader."""
+    assert import_cycles(package) == []
+
+
+def test_the_cycle_check_can_fail(tmp_path, monkeypatch):
+    """The checker itself: a lazy relative import closing a ring of two, and a ring of three
+    through a subpackage's ``__init__`` and a ``from . import``, are each found; a chain that
+    does not close is not."""
+    pkg = tmp_path / "fogcomp"
+    (pkg / "sub").mkdir(parents=True)
+    (pkg / "__init__.py").write_text("from .a import f\n")
+    (pkg / "a.py").write_text("def f():\n    from .b import g\n    return g\n")
+    (pkg / "b.py").write_text("import math\n\nfrom fogcomp.a import f\n")
+    (pkg / "c.py").write_text("from .sub import h\n")
+    (pkg / "sub" / "__init__.py").write_text("from .. import d\nh = 1\n")
+    (pkg / "d.py").write_text("def k():\n    import fogcomp.c\n")
+    (pkg / "e.py").write_text("from .a import f\nfrom .sub import h\n")
+    monkeypatch.setattr(sys.modules[__name__], "ROOT", tmp_path)
+    assert import_cycles("fogcomp") == [
+        ("fogcomp.a (fogcomp/a.py:2) -> fogcomp.b (fogcomp/b.py:3) -> fogcomp.a  "
+         "[ring of ['fogcomp.a', 'fogcomp.b']]"),
+        ("fogcomp.c (fogcomp/c.py:1) -> fogcomp.sub (fogcomp/sub/__init__.py:1) -> fogcomp.d "
+         "(fogcomp/d.py:2) -> fogcomp.c  [ring of ['fogcomp.c', 'fogcomp.d', 'fogcomp.sub']]")]

@@ -42,9 +42,6 @@ __all__ = [
 #: A loss this many times the initial loss counts as diverged (:class:`DivergenceError`).
 DIVERGENCE_FACTOR = 1e4
 
-_PAPER = ("Paper 000 (fogbench seed 000_6140556fe3a47984): error compensation of a fiber-optic "
-          "gyro by a wavelet neural network")
-
 
 # ---------------------------------------------------------------------------------------------
 # Trend extraction

@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..units import ARCSEC, DEG_RT_H, DPH, DPH_PER_H, DPH_RT_H
-from ._processes import TERM_NAMES, avar_gm, avar_model, avar_term
+from ._processes import TERM_NAMES, avar_model
 
 # datasheet unit (SI per unit) and key of each term's coefficient
 DATASHEET = {"N": (DEG_RT_H, "arw_deg_rt_h"), "B": (DPH, "bias_instability_dph"),
@@ -177,16 +177,6 @@ class NoiseModel:
     def model_adev(self, taus) -> np.ndarray:
         """The identified model's Allan deviation at ``taus`` (s), rad/s."""
         return np.sqrt(self.model_avar(taus))
-
-    def contributions(self, taus) -> dict:
-        """Each fitted term's Allan deviation at ``taus``: ``{label: ndarray}``, rad/s."""
-        out = {}
-        for t in self.in_model:
-            if t.term == "GM":
-                out[t.label] = np.sqrt(avar_gm(taus, t.tau, self.fs)) * t.value
-            else:
-                out[t.label] = np.sqrt(avar_term(t.term, taus)) * t.value
-        return out
 
     def spec(self) -> str:
         """The identified terms as a ``model=`` string (``"N + B + K + GM"``)."""

@@ -392,8 +392,8 @@ _CHUNK = 1024
 class _BatchLoss:
     """:func:`wnn_loss_and_grad` over the windows of one fitting record, for repeated calls.
 
-    The same loss and gradient, arranged for speed (issue 23; ``tests/test_wnn.py`` compares
-    the training it drives with the former implementation):
+    The same loss and gradient, arranged for speed (``tests/test_wnn.py`` compares the
+    training it drives with the former, plain implementation, kept there verbatim):
 
     * The Morlet's cos(w0 u) and sin(w0 u) come from one tangent of the half angle,
       ``tau = tan(w0 u / 2)``: ``cos = (1 - tau^2) / (1 + tau^2)``, ``sin = 2 tau / (1 + tau^2)``.

@@ -118,71 +118,111 @@ def _pair_sums(procs, mi: int, mj: int, n: int, fs: float) -> tuple[np.ndarray, 
     short, else by quadrature between its kinks; over the tails beyond it (flicker and
     Gauss-Markov terms only, where f is smooth) by quadrature on pieces growing away from it.
     A sum over integers is taken as the integral over [h - 1/2, h + 1/2] of each."""
-    tau0 = 1.0 / fs
-    P = len(procs)
-    S2, S1 = np.zeros((P, P)), np.zeros(P)
-    Mi, Mj = n + 1 - 2 * mi, n + 1 - 2 * mj
-    h_lo, h_hi = -(Mj - 1), Mi - 1
+    acc = _LagSums(procs, mi, mj, n, fs)
+    h_lo, h_hi = -(acc.Mj - 1), acc.Mi - 1
     c_lo, c_hi = max(h_lo, -2 * mi - 2), min(h_hi, 2 * mj + 2)
     if c_hi < c_lo:
-        return S2, S1
-    cont = [k for k, (kind, _) in enumerate(procs) if kind != "Q"]
-    quant = [k for k, (kind, _) in enumerate(procs) if kind == "Q"]
-
-    def add(h, w, which):
-        F = np.array([_f_unit(*procs[k], h, mi, mj, tau0) for k in which])
-        S2[np.ix_(which, which)] += (F * w) @ F.T
-        S1[which] += F @ w
-
+        return acc.S2, acc.S1
     if c_hi - c_lo + 1 <= _EXACT_MAX:
         h = np.arange(c_lo, c_hi + 1, dtype=float)
-        add(h, _pairs_count(h, Mi, Mj), list(range(P)))
+        acc.add(h, _pairs_count(h, acc.Mi, acc.Mj), list(range(len(procs))))
     else:
-        # every lag summed near each kink of f (where a Gauss-Markov term's exponential and
-        # the |t| of the white and random-walk terms bend), a quadrature between
-        kinks = sorted(k for k in ({b * mj - a * mi for a in range(3) for b in range(3)}
-                                   | {0, Mi - Mj}) if c_lo <= k <= c_hi)
-        windows = []
-        for k in kinks:
-            a, b = max(c_lo, k - _KINK_WINDOW), min(c_hi, k + _KINK_WINDOW)
-            if windows and a <= windows[-1][1] + 1:
-                windows[-1][1] = max(windows[-1][1], b)
-            else:
-                windows.append([a, b])
-        exact = np.concatenate([np.arange(a, b + 1, dtype=float) for a, b in windows])
-        if cont:
-            add(exact, _pairs_count(exact, Mi, Mj), cont)
-        pieces = []
-        gaps = [(c_lo - 0.5, windows[0][0] - 0.5)] if windows[0][0] > c_lo else []
-        gaps += [(w0[1] + 0.5, w1[0] - 0.5) for w0, w1 in zip(windows[:-1], windows[1:])]
-        if windows[-1][1] < c_hi:
-            gaps.append((windows[-1][1] + 0.5, c_hi + 0.5))
-        for a, b in gaps:
-            if b > a:
-                pieces += _geometric_pieces(a, b, "both")
-        if pieces and cont:
-            h, wq = _gl_nodes(pieces)
-            add(h, _pairs_count(h, Mi, Mj) * wq, cont)
-        if quant:  # the delta sits at the integer kinks: its products with every process there
-            hk = np.array(sorted(k for k in {b * mj - a * mi for a in range(3)
-                                              for b in range(3)} if c_lo <= k <= c_hi),
-                          dtype=float)
-            nk = _pairs_count(hk, Mi, Mj)
-            F = np.array([_f_unit(*procs[k], hk, mi, mj, tau0) for k in range(P)])
-            for q in quant:
-                for k in range(P):
-                    v = float(np.sum(nk * F[q] * F[k]))
-                    S2[q, k] += v
-                    if k != q:
-                        S2[k, q] += v
-                S1[q] += float(np.sum(nk * F[q]))
+        _add_long_core(acc, c_lo, c_hi)
+    _add_tails(acc, (h_lo, h_hi), (c_lo, c_hi))
+    return acc.S2, acc.S1
+
+
+class _LagSums:
+    """The sums of :func:`_pair_sums`, ``S2[p, q] = sum_h N f_p f_q`` and ``S1[p] = sum_h N f_p``,
+    for the averaging factors mi, mj of an n-sample record, accumulated one range of lags at
+    a time (:meth:`add`)."""
+
+    def __init__(self, procs, mi: int, mj: int, n: int, fs: float):
+        self.procs, self.mi, self.mj, self.fs = procs, mi, mj, fs
+        self.tau0 = 1.0 / fs
+        self.Mi, self.Mj = n + 1 - 2 * mi, n + 1 - 2 * mj      # terms at tau_i, tau_j
+        P = len(procs)
+        self.S2, self.S1 = np.zeros((P, P)), np.zeros(P)
+        self.continuous = [k for k, (kind, _) in enumerate(procs) if kind != "Q"]
+        self.quantisation = [k for k, (kind, _) in enumerate(procs) if kind == "Q"]
+
+    def f(self, k: int, h) -> np.ndarray:
+        """f_ij(h) of unit process k at the lags ``h``."""
+        return _f_unit(*self.procs[k], h, self.mi, self.mj, self.tau0)
+
+    def add(self, h, w, which) -> None:
+        """Add the lags ``h``, each weighted by ``w`` (its pair count, times a quadrature
+        weight), to the sums of the processes ``which``."""
+        F = np.array([self.f(k, h) for k in which])
+        self.S2[np.ix_(which, which)] += (F * w) @ F.T
+        self.S1[which] += F @ w
+
+
+def _add_long_core(acc: _LagSums, c_lo: int, c_hi: int) -> None:
+    """The core lags c_lo..c_hi when they are too many to sum one by one: every lag summed near
+    each kink of f (where a Gauss-Markov term's exponential and the |t| of the white and
+    random-walk terms bend), a quadrature between, and the quantisation's delta at the
+    integer kinks."""
+    mi, mj, Mi, Mj = acc.mi, acc.mj, acc.Mi, acc.Mj
+    cont = acc.continuous
+    kinks = sorted(k for k in ({b * mj - a * mi for a in range(3) for b in range(3)}
+                               | {0, Mi - Mj}) if c_lo <= k <= c_hi)
+    windows = []
+    for k in kinks:
+        a, b = max(c_lo, k - _KINK_WINDOW), min(c_hi, k + _KINK_WINDOW)
+        if windows and a <= windows[-1][1] + 1:
+            windows[-1][1] = max(windows[-1][1], b)
+        else:
+            windows.append([a, b])
+    exact = np.concatenate([np.arange(a, b + 1, dtype=float) for a, b in windows])
+    if cont:
+        acc.add(exact, _pairs_count(exact, Mi, Mj), cont)
+    pieces = []
+    gaps = [(c_lo - 0.5, windows[0][0] - 0.5)] if windows[0][0] > c_lo else []
+    gaps += [(w0[1] + 0.5, w1[0] - 0.5) for w0, w1 in zip(windows[:-1], windows[1:])]
+    if windows[-1][1] < c_hi:
+        gaps.append((windows[-1][1] + 0.5, c_hi + 0.5))
+    for a, b in gaps:
+        if b > a:
+            pieces += _geometric_pieces(a, b, "both")
+    if pieces and cont:
+        h, wq = _gl_nodes(pieces)
+        acc.add(h, _pairs_count(h, Mi, Mj) * wq, cont)
+    if acc.quantisation:
+        _add_quantisation(acc, c_lo, c_hi)
+
+
+def _add_quantisation(acc: _LagSums, c_lo: int, c_hi: int) -> None:
+    """The quantisation's delta sits at the integer kinks: its products with every process
+    there."""
+    mi, mj = acc.mi, acc.mj
+    hk = np.array(sorted(k for k in {b * mj - a * mi for a in range(3)
+                                      for b in range(3)} if c_lo <= k <= c_hi),
+                  dtype=float)
+    nk = _pairs_count(hk, acc.Mi, acc.Mj)
+    P = len(acc.procs)
+    F = np.array([acc.f(k, hk) for k in range(P)])
+    for q in acc.quantisation:
+        for k in range(P):
+            v = float(np.sum(nk * F[q] * F[k]))
+            acc.S2[q, k] += v
+            if k != q:
+                acc.S2[k, q] += v
+        acc.S1[q] += float(np.sum(nk * F[q]))
+
+
+def _add_tails(acc: _LagSums, lags: tuple[int, int], core: tuple[int, int]) -> None:
+    """The lags beyond the core (within ``lags``, the record's), where only the flicker and
+    Gauss-Markov terms reach and f is smooth: a quadrature on pieces growing away from the
+    core, as far as those terms' correlation reaches."""
+    (h_lo, h_hi), (c_lo, c_hi) = lags, core
     tail = 0.0
-    for kind, T in procs:
+    for kind, T in acc.procs:
         if kind == "B":
-            tail = max(tail, 50.0 * (mi + mj))
+            tail = max(tail, 50.0 * (acc.mi + acc.mj))
         elif kind == "GM":
-            tail = max(tail, 30.0 * T * fs)
-    smooth = [k for k in cont if procs[k][0] in ("B", "GM")]
+            tail = max(tail, 30.0 * T * acc.fs)
+    smooth = [k for k in acc.continuous if acc.procs[k][0] in ("B", "GM")]
     if tail > 0 and smooth:
         left = (max(h_lo - 0.5, c_lo - 0.5 - tail), c_lo - 0.5)
         right = (c_hi + 0.5, min(h_hi + 0.5, c_hi + 0.5 + tail))
@@ -193,8 +233,7 @@ def _pair_sums(procs, mi: int, mj: int, n: int, fs: float) -> tuple[np.ndarray, 
             pieces += _geometric_pieces(*right, towards="a")
         if pieces:
             h, wq = _gl_nodes(pieces)  # only the tailed processes are non-zero here
-            add(h, _pairs_count(h, Mi, Mj) * wq, smooth)
-    return S2, S1
+            acc.add(h, _pairs_count(h, acc.Mi, acc.Mj) * wq, smooth)
 
 
 class _CovBasis:

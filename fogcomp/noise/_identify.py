@@ -5,11 +5,12 @@
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from .._stats import ONE_SIGMA_CI
-from ._fit import _param_cov, _pilot, _Problem, _Spec, _stated
+from ._fit import _Fit, _param_cov, _pilot, _Problem, _Spec, _stated
 from ._intervals import _interval_sqrt, _record_for, _score_interval
 from ._processes import FLICKER_FLOOR, LINEAR_TERMS, parse_model
 from ._result import ModelTerm, NoiseModel
@@ -21,9 +22,9 @@ def identify_noise_model(taus, avar, fs: float, n, *, model=None, ci: float | No
                          record_length: bool = True) -> NoiseModel:
     """Identify the noise model of a record from its overlapping Allan variance.
 
-    The estimator, the model selection and the intervals are described in the module
-    docstring; :func:`fogcomp.allan.allan_analysis` computes the curve of a record and calls
-    this.
+    The estimator, the model selection and the intervals are described in the docstring of
+    :mod:`fogcomp.noise`; :func:`fogcomp.allan.allan_analysis` computes the curve of a record
+    and calls this.
 
     Parameters
     ----------
@@ -62,9 +63,30 @@ def identify_noise_model(taus, avar, fs: float, n, *, model=None, ci: float | No
     -------
     NoiseModel
     """
-    from scipy.stats import chi2, norm
+    from scipy.stats import chi2
 
     ci = ONE_SIGMA_CI if ci is None else ci
+    _check_options(ci, alpha, max_gm, model_error)
+    t, v, m, segs, fs = _checked_curve(taus, avar, fs, n)
+    stated = None if model is None else _checked_model(model, t.size)
+    pb = _Problem(t, v, m, segs, fs, model_error)
+    big, fit, weak, log = _fit_and_select(pb, stated, alpha, max_gm, model_error)
+    cov_v = pb.covariance(*big.coefficients())
+    # the parameter covariance is scaled by J / dof when the curve departs from the model
+    dof = t.size - fit.spec.n_params
+    p_value = float(chi2.sf(fit.J, dof)) if dof > 0 else float("nan")
+    scale = fit.J / dof if dof > 0 and p_value < 0.05 else 1.0
+    terms = _model_terms(_Report.of(pb, fit, scale, ci, stated is not None, alpha,
+                                    record_length), weak, log)
+    return NoiseModel(terms=terms, taus=t, avar=v, avar_cov=cov_v, fs=fs, n=segs, ci=ci,
+                      J=float(fit.J), dof=int(dof), p_value=p_value, scale=float(scale),
+                      floor_reading=_floor_reading(t, v, cov_v), selection=log,
+                      stated=stated is not None, alpha=alpha, model_error=float(pb.model_error))
+
+
+# ---------------------------------------------------------------------------------------------
+# The inputs
+def _check_options(ci, alpha, max_gm, model_error) -> None:
     if not (isinstance(ci, (int, float)) and 0.0 < ci < 1.0):
         raise ValueError(f"ci: expected a probability between 0 and 1, got {ci!r}")
     if not (isinstance(alpha, (int, float)) and 0.0 < alpha < 0.5):
@@ -75,6 +97,10 @@ def identify_noise_model(taus, avar, fs: float, n, *, model=None, ci: float | No
     if not (isinstance(model_error, (int, float)) and 0.0 <= model_error < 1.0):
         raise ValueError(f"model_error: expected a relative error in [0, 1), got "
                          f"{model_error!r}")
+
+
+def _checked_curve(taus, avar, fs, n):
+    """(taus, avar sorted by tau, averaging factors m, samples per segment, fs), checked."""
     if isinstance(fs, bool) or not isinstance(fs, (int, float, np.integer, np.floating)) or \
             not math.isfinite(fs) or fs <= 0:
         raise ValueError(f"fs: sample rate must be a positive finite number in Hz, got {fs!r}")
@@ -108,146 +134,206 @@ def identify_noise_model(taus, avar, fs: float, n, *, model=None, ci: float | No
     if m[-1] > (max(segs) - 1) // 2:
         raise ValueError(f"taus: the longest averaging time {t[-1]:g} s needs more than the "
                          f"{max(segs)} samples given (n)")
-    stated = model is not None
-    if stated:
-        linear, n_gm = parse_model(model)
-        if len(linear) + 2 * n_gm >= t.size:
-            raise ValueError(f"model: {len(linear) + 2 * n_gm} parameters from {t.size} "
-                             "averaging times: not enough points to fit it")
+    return t, v, m, segs, fs
 
-    pb = _Problem(t, v, m, segs, fs, model_error)
+
+def _checked_model(model, k: int) -> tuple[tuple[str, ...], int]:
+    """The stated model's (linear terms, number of Gauss-Markov terms), fewer parameters than
+    the ``k`` points of the curve."""
+    linear, n_gm = parse_model(model)
+    if len(linear) + 2 * n_gm >= k:
+        raise ValueError(f"model: {len(linear) + 2 * n_gm} parameters from {k} "
+                         "averaging times: not enough points to fit it")
+    return linear, n_gm
+
+
+# ---------------------------------------------------------------------------------------------
+# The fit and the selection
+def _fit_and_select(pb: _Problem, stated, alpha: float, max_gm: int, model_error: float):
+    """(largest model, fitted model, weak terms, the selection's log) of the curve in ``pb``:
+    the stated model (``(linear, n_gm)``) or the selected one (``stated`` None), under the
+    weights of the largest model; once more with a larger model error when the curve departs
+    from the fit beyond its error bars."""
+    from scipy.stats import chi2
+
     log: list[str] = []
-
-    def weights_and_fit(eps: float, select: bool):
-        """Omega, once for every candidate (as GMWM's is model-free): the covariance under the
-        largest model (every linear term and the Gauss-Markov terms that lower J), fitted
-        twice with the weights at its own estimate (a smaller model's covariance would
-        understate the variance where a term it lacks adds to the curve, and so keep that term
-        out); then the selection (or the stated model) under it."""
-        pb.model_error = eps
-        pb.set_weights(*_pilot(pb))
-        for _ in range(2):
-            big = _saturated(pb, alpha, max_gm) if not stated else \
-                _stated(pb, tuple(sorted(set(LINEAR_TERMS) | set(linear),
-                                         key=LINEAR_TERMS.index)), n_gm)
-            pb.set_weights(*big.coefficients())
-        steps: list[str] = [f"weights (Omega) from the largest model, {big.spec.label()}"]
-        if stated:
-            fit, weak = _stated(pb, linear, n_gm), {}
-        elif select:
-            fit, weak = _select(pb, alpha, max_gm, steps)
-        else:
-            return big, None, None, steps
-        return big, pb.refine(fit.spec), weak, steps
-
-    big, fit, weak, steps = weights_and_fit(model_error, True)
-    dof = t.size - fit.spec.n_params
+    big, fit, weak, steps = _weights_and_fit(pb, model_error, stated, alpha, max_gm)
+    dof = pb.taus.size - fit.spec.n_params
     if dof > 0 and chi2.sf(fit.J, dof) < 0.01:
         # The curve departs from every model of these terms more than its statistical error
         # allows (a real sensor's anti-alias filter, vibration, temperature): that misfit is
-        # estimated as a relative error per point, the value that brings J to its degrees of
-        # freedom (a method-of-moments dispersion), and the selection is made again under
+        # estimated as a relative error per point, and the selection is made again under
         # it, so that the few very precise short-tau points do not decide every term.
-        spec0 = fit.spec
-        lo_e, hi_e = math.log(max(model_error, 1e-4)), math.log(0.5)
-        for _ in range(14):
-            mid = 0.5 * (lo_e + hi_e)
-            pb.model_error = math.exp(mid)
-            pb.set_weights(*big.coefficients())
-            if pb.refine(spec0).J > dof:
-                lo_e = mid
-            else:
-                hi_e = mid
-            if hi_e - lo_e < 0.05:
-                break
-        eps = math.exp(hi_e)
-        log.append(f"the curve departs from the model {spec0.label()} beyond its error bars "
+        eps = _misfit_model_error(pb, big, fit.spec, dof, model_error)
+        log.append(f"the curve departs from the model {fit.spec.label()} beyond its error bars "
                    f"(J = {fit.J:.3g} on {dof} degrees of freedom): a model error of "
                    f"{100 * eps:.2g} % per point brings J to its degrees of freedom; selected "
                    "again with it")
-        big, fit, weak, steps = weights_and_fit(eps, True)
+        big, fit, weak, steps = _weights_and_fit(pb, eps, stated, alpha, max_gm)
     log.extend(steps)
-    cov_v = pb.covariance(*big.coefficients())
+    return big, fit, weak, log
 
-    # the parameter covariance, scaled when the curve departs from the model
-    p = fit.spec.n_params
-    dof = t.size - p
-    p_value = float(chi2.sf(fit.J, dof)) if dof > 0 else float("nan")
-    scale = fit.J / dof if dof > 0 and p_value < 0.05 else 1.0
-    cov = _param_cov(pb, fit) * scale
-    z = float(norm.ppf(0.5 + ci / 2.0))
-    z95 = float(norm.ppf(0.95))
-    n_lin, n_gm_fit = len(fit.spec.linear), len(fit.spec.gm)
-    terms: dict = {}
 
-    def interval(k):
-        """(value, low, high, sigma, bound) of the square root of coefficient k: the score
-        interval of content ci, the linearised sigma for display, the one-sided 95 % bound."""
-        sc = math.sqrt(max(cov[k, k], 0.0))
-        val, _, _, sigma = _interval_sqrt(float(fit.coef[k]), sc, z)
-        c_lo, c_hi = _score_interval(pb, fit, k, z, scale)
-        _, c_b = _score_interval(pb, fit, k, z95, scale, lower=False)
-        root = (lambda c: None if c is None else math.sqrt(c))
-        return val, math.sqrt(c_lo), root(c_hi), sigma, root(c_b)
+def _weights_and_fit(pb: _Problem, eps: float, stated, alpha: float, max_gm: int):
+    """Omega, once for every candidate (as GMWM's is model-free): the covariance under the
+    largest model (every linear term and the Gauss-Markov terms that lower J), fitted
+    twice with the weights at its own estimate (a smaller model's covariance would
+    understate the variance where a term it lacks adds to the curve, and so keep that term
+    out); then the selection (or the stated model) under it. Returns (largest model, fit,
+    weak terms, steps)."""
+    pb.model_error = eps
+    pb.set_weights(*_pilot(pb))
+    for _ in range(2):
+        big = _saturated(pb, alpha, max_gm) if stated is None else \
+            _stated(pb, tuple(sorted(set(LINEAR_TERMS) | set(stated[0]),
+                                     key=LINEAR_TERMS.index)), stated[1])
+        pb.set_weights(*big.coefficients())
+    steps: list[str] = [f"weights (Omega) from the largest model, {big.spec.label()}"]
+    if stated is not None:
+        fit, weak = _stated(pb, *stated), {}
+    else:
+        fit, weak = _select(pb, alpha, max_gm, steps)
+    return big, pb.refine(fit.spec), weak, steps
 
-    for k, term in enumerate(fit.spec.linear):
-        val, lo, hi, sigma, bound = interval(k)
-        rel = (sigma / val) if sigma and val else math.inf
-        # the record a 10 % estimate needs, for a term the record shows (a term it does not
-        # show has only a bound, and its estimate is no base for a prediction)
-        rec = _record_for(pb, fit, k, rel, scale=scale) \
-            if record_length and term not in weak else None
-        if term in weak:
-            rise, need = weak[term]
-            terms[term] = ModelTerm(
-                term, "upper bound" if bound is not None else "not identified", val, lo, hi,
-                sigma, f"in the model ({fit.spec.label()}) but not significant: removing it "
-                f"raises J by {rise:.3g} < {need:.3g}; "
-                + ("95 % upper bound from the model" if bound is not None else
-                   "the record does not bound it from above"),
-                record_s_for_10pct=rec, bound=bound, in_model=True)
+
+def _misfit_model_error(pb: _Problem, big: _Fit, spec: _Spec, dof: int,
+                        model_error: float) -> float:
+    """The relative error per point that brings J of ``spec`` to its degrees of freedom (a
+    method-of-moments dispersion), by bisection in its logarithm between the given model
+    error (at least 1e-4) and 0.5; the weights from the largest model ``big``."""
+    lo_e, hi_e = math.log(max(model_error, 1e-4)), math.log(0.5)
+    for _ in range(14):
+        mid = 0.5 * (lo_e + hi_e)
+        pb.model_error = math.exp(mid)
+        pb.set_weights(*big.coefficients())
+        if pb.refine(spec).J > dof:
+            lo_e = mid
         else:
-            why = ("stated" if stated else "significant: removing it raises J by more than "
-                   f"the level-{alpha:g} critical value") + f" (model {fit.spec.label()})"
-            terms[term] = ModelTerm(term, "identified", val, lo, hi, sigma, why,
-                                    record_s_for_10pct=rec, bound=bound, in_model=True)
-    gms = []
-    for g, T in enumerate(fit.spec.gm):
-        k = n_lin + g
-        val, lo, hi, sigma, bound = interval(k)
-        kt = n_lin + n_gm_fit + g
-        st = math.sqrt(max(cov[kt, kt], 0.0))
-        rel = (sigma / val) if sigma and val else math.inf
-        rec = _record_for(pb, fit, k, rel, scale=scale) if record_length else None
-        gms.append(ModelTerm("GM", "identified", val, lo, hi, sigma,
-                             "stated" if stated else "significant: adding it lowered J by more "
-                             f"than the critical value {_gm_threshold(pb, alpha):.3g}",
-                             tau=float(T), tau_low=float(T * math.exp(-z * st)),
-                             tau_high=float(T * math.exp(z * st)), record_s_for_10pct=rec,
-                             bound=bound, in_model=True))
+            hi_e = mid
+        if hi_e - lo_e < 0.05:
+            break
+    return math.exp(hi_e)
+
+
+# ---------------------------------------------------------------------------------------------
+# The terms of the result
+@dataclass(frozen=True)
+class _Report:
+    """What the report of each term needs: the fit, its parameter covariance (scaled), the
+    normal quantiles of the intervals, and the identifier's options."""
+
+    pb: _Problem
+    fit: _Fit
+    cov: np.ndarray          # covariance of the coefficients (and log T), times ``scale``
+    scale: float
+    z: float                 # normal quantile of the interval of content ci
+    z95: float               # of the one-sided 95 % bound
+    stated: bool
+    alpha: float
+    record_length: bool
+
+    @classmethod
+    def of(cls, pb, fit, scale, ci, stated, alpha, record_length) -> _Report:
+        from scipy.stats import norm
+
+        cov = _param_cov(pb, fit) * scale
+        return cls(pb, fit, cov, scale, float(norm.ppf(0.5 + ci / 2.0)), float(norm.ppf(0.95)),
+                   stated, alpha, record_length)
+
+
+def _model_terms(r: _Report, weak: dict, log: list) -> list:
+    """The five IEEE terms in their order (each in the model, or left out), then the
+    Gauss-Markov terms by correlation time."""
+    terms: dict = {}
+    for k, term in enumerate(r.fit.spec.linear):
+        terms[term] = _linear_term(r, k, weak.get(term))
+    gms = [_gm_term(r, g) for g in range(len(r.fit.spec.gm))]
     # the terms left out: a one-sided 95 % upper bound from the model with the term forced in
     for term in LINEAR_TERMS:
-        if term in terms:
-            continue
-        why = next((s for s in reversed(log) if s.startswith(f"dropped {term}:")), None)
-        try:
-            forced = pb.refine(_Spec(tuple(x for x in LINEAR_TERMS
-                                           if x in fit.spec.linear or x == term), fit.spec.gm))
-            k = forced.spec.linear.index(term)
-            _, c_b = _score_interval(pb, forced, k, z95, scale, lower=False)
-            bound = None if c_b is None else math.sqrt(c_b)
-        except (np.linalg.LinAlgError, ValueError):
-            bound = None
-        reason = (why or ("not in the stated model" if stated else "not selected"))
-        if bound is not None and math.isfinite(bound) and bound > 0:
-            terms[term] = ModelTerm(term, "upper bound", None, None, None, None,
-                                    reason + "; 95 % upper bound from the model with it "
-                                    "forced in", bound=bound)
-        else:
-            terms[term] = ModelTerm(term, "not identified", None, None, None, None, reason)
-    ordered = [terms[x] for x in LINEAR_TERMS] + sorted(gms, key=lambda g: g.tau)
+        if term not in terms:
+            terms[term] = _left_out_term(r, term, log)
+    return [terms[x] for x in LINEAR_TERMS] + sorted(gms, key=lambda g: g.tau)
 
-    # the IEEE 952 floor reading, beside the fit
+
+def _interval(r: _Report, k: int):
+    """(value, low, high, sigma, bound) of the square root of coefficient k: the score
+    interval of content ci, the linearised sigma for display, the one-sided 95 % bound."""
+    sc = math.sqrt(max(r.cov[k, k], 0.0))
+    val, _, _, sigma = _interval_sqrt(float(r.fit.coef[k]), sc, r.z)
+    c_lo, c_hi = _score_interval(r.pb, r.fit, k, r.z, r.scale)
+    _, c_b = _score_interval(r.pb, r.fit, k, r.z95, r.scale, lower=False)
+    root = (lambda c: None if c is None else math.sqrt(c))
+    return val, math.sqrt(c_lo), root(c_hi), sigma, root(c_b)
+
+
+def _linear_term(r: _Report, k: int, weak) -> ModelTerm:
+    """Linear term k of the fit: identified, or (``weak``: (rise of J when removed, critical
+    value)) kept in the model but not significant, reported with its bound."""
+    term = r.fit.spec.linear[k]
+    val, lo, hi, sigma, bound = _interval(r, k)
+    rel = (sigma / val) if sigma and val else math.inf
+    # the record a 10 % estimate needs, for a term the record shows (a term it does not
+    # show has only a bound, and its estimate is no base for a prediction)
+    rec = _record_for(r.pb, r.fit, k, rel, scale=r.scale) \
+        if r.record_length and weak is None else None
+    label = r.fit.spec.label()
+    if weak is not None:
+        rise, need = weak
+        return ModelTerm(
+            term, "upper bound" if bound is not None else "not identified", val, lo, hi,
+            sigma, f"in the model ({label}) but not significant: removing it "
+            f"raises J by {rise:.3g} < {need:.3g}; "
+            + ("95 % upper bound from the model" if bound is not None else
+               "the record does not bound it from above"),
+            record_s_for_10pct=rec, bound=bound, in_model=True)
+    why = ("stated" if r.stated else "significant: removing it raises J by more than "
+           f"the level-{r.alpha:g} critical value") + f" (model {label})"
+    return ModelTerm(term, "identified", val, lo, hi, sigma, why,
+                     record_s_for_10pct=rec, bound=bound, in_model=True)
+
+
+def _gm_term(r: _Report, g: int) -> ModelTerm:
+    """Gauss-Markov term g of the fit, its correlation time's interval normal in log T."""
+    n_lin, n_gm = len(r.fit.spec.linear), len(r.fit.spec.gm)
+    T = r.fit.spec.gm[g]
+    k = n_lin + g
+    val, lo, hi, sigma, bound = _interval(r, k)
+    kt = n_lin + n_gm + g
+    st = math.sqrt(max(r.cov[kt, kt], 0.0))
+    rel = (sigma / val) if sigma and val else math.inf
+    rec = _record_for(r.pb, r.fit, k, rel, scale=r.scale) if r.record_length else None
+    return ModelTerm("GM", "identified", val, lo, hi, sigma,
+                     "stated" if r.stated else "significant: adding it lowered J by more "
+                     f"than the critical value {_gm_threshold(r.pb, r.alpha):.3g}",
+                     tau=float(T), tau_low=float(T * math.exp(-r.z * st)),
+                     tau_high=float(T * math.exp(r.z * st)), record_s_for_10pct=rec,
+                     bound=bound, in_model=True)
+
+
+def _left_out_term(r: _Report, term: str, log: list) -> ModelTerm:
+    """A linear term outside the fitted model: why (the selection's step that dropped it), and
+    its one-sided 95 % upper bound from the model refitted with it forced in, when there is
+    one."""
+    why = next((s for s in reversed(log) if s.startswith(f"dropped {term}:")), None)
+    try:
+        forced = r.pb.refine(_Spec(tuple(x for x in LINEAR_TERMS
+                                         if x in r.fit.spec.linear or x == term), r.fit.spec.gm))
+        k = forced.spec.linear.index(term)
+        _, c_b = _score_interval(r.pb, forced, k, r.z95, r.scale, lower=False)
+        bound = None if c_b is None else math.sqrt(c_b)
+    except (np.linalg.LinAlgError, ValueError):
+        bound = None
+    reason = (why or ("not in the stated model" if r.stated else "not selected"))
+    if bound is not None and math.isfinite(bound) and bound > 0:
+        return ModelTerm(term, "upper bound", None, None, None, None,
+                         reason + "; 95 % upper bound from the model with it "
+                         "forced in", bound=bound)
+    return ModelTerm(term, "not identified", None, None, None, None, reason)
+
+
+def _floor_reading(t: np.ndarray, v: np.ndarray, cov_v: np.ndarray) -> dict:
+    """The IEEE 952 datasheet reading of the bias instability beside the fit: the Allan
+    deviation's minimum over its points known to 25 % or better, divided by 0.664."""
     adev = np.sqrt(v)
     rel_adev = np.sqrt(np.diag(cov_v)) / (2.0 * v)
     ok = rel_adev <= 0.25
@@ -268,7 +354,4 @@ def identify_noise_model(taus, avar, fs: float, n, *, model=None, ci: float | No
                          tau_s=float(t[i]), reason=f"minimum of the curve at tau {t[i]:g} s")
     else:
         floor["reason"] = "no point of the curve is known to 25 % or better"
-    return NoiseModel(terms=ordered, taus=t, avar=v, avar_cov=cov_v, fs=fs, n=segs, ci=ci,
-                      J=float(fit.J), dof=int(dof), p_value=p_value, scale=float(scale),
-                      floor_reading=floor, selection=log, stated=stated, alpha=alpha,
-                      model_error=float(pb.model_error))
+    return floor

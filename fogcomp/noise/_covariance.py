@@ -33,6 +33,7 @@ _EXACT_MAX = 4096           # lags summed term by term below this many
 _KINK_WINDOW = 32           # lags summed term by term on each side of a kink of f
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(8)
 
+
 def _g_unit(kind: str, T: float | None, a: np.ndarray, tau0: float) -> np.ndarray:
     """Generalised autocovariance of the angle of a unit-coefficient process at lags ``a``
     (samples, |real|), rad^2 per unit of the coefficient (module docstring). The quantisation

@@ -148,6 +148,7 @@ class _Problem:
                 best = f
         return self.refine(best.spec)
 
+
 def _pilot(pb: _Problem) -> tuple[dict, list]:
     """A first model for the weights: the five linear terms fitted with each point weighted
     by its variance over the model (IEEE Std 952 Annex C.2 error bars, n/m clusters)."""
@@ -168,11 +169,13 @@ def _pilot(pb: _Problem) -> tuple[dict, list]:
         scale = model
     return {t: math.sqrt(v) for t, v in zip(LINEAR_TERMS, c)}, []
 
+
 def _stated(pb: _Problem, linear: tuple, n_gm: int) -> _Fit:
     fit = pb.solve(_Spec(linear))
     for _ in range(n_gm):
         fit = pb.add_gm(fit.spec)
     return fit
+
 
 def _jacobian(pb: _Problem, fit: _Fit) -> np.ndarray:
     """d model / d (coefficients..., log T of each GM), shape (k, p)."""

@@ -20,6 +20,7 @@ TERM_NAMES = {"Q": "quantisation", "N": "angle random walk", "B": "bias instabil
               "K": "rate random walk", "R": "rate ramp", "GM": "Gauss-Markov"}
 FLICKER_FLOOR = 2.0 * math.log(2.0) / math.pi          # AVAR of flicker B = 1: (2 ln 2/pi)
 
+
 def avar_term(term: str, taus) -> np.ndarray:
     """Allan variance of a linear term with unit coefficient at ``taus`` (s), shape (k,)."""
     t = np.asarray(taus, dtype=float)
@@ -34,6 +35,7 @@ def avar_term(term: str, taus) -> np.ndarray:
     if term == "R":
         return t**2 / 2.0
     raise ValueError(f"term: unknown term {term!r}; expected one of {LINEAR_TERMS}")
+
 
 _GM_SERIES_TERMS = 30
 
@@ -134,6 +136,7 @@ def avar_model(taus, coefficients: dict, gm=(), fs: float | None = None) -> np.n
             raise ValueError("fs: the Gauss-Markov terms need the sample rate")
         out = out + avar_gm(t, T, fs) * sigma**2
     return out
+
 
 def parse_model(model) -> tuple[tuple[str, ...], int]:
     """A stated model: ``"N + B + K"``, ``"N+GM+GM"`` or a list of term names -> (linear

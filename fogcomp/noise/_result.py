@@ -16,6 +16,7 @@ DATASHEET = {"N": (DEG_RT_H, "arw_deg_rt_h"), "B": (DPH, "bias_instability_dph")
              "K": (DPH_RT_H, "rrw_dph_rt_h"), "Q": (ARCSEC, "quantisation_arcsec"),
              "R": (DPH_PER_H, "rate_ramp_dph_per_h"), "GM": (DPH, "gm_sigma_dph")}
 
+
 @dataclass(frozen=True)
 class ModelTerm:
     """One term of an identified noise model.

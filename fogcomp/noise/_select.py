@@ -119,6 +119,7 @@ def _select(pb: _Problem, alpha: float, max_gm: int, log: list) -> tuple[_Fit, d
                        "sake, reported as an upper bound")
     return cur, weak
 
+
 def _saturated(pb: _Problem, alpha: float, max_gm: int) -> _Fit:
     """Every linear term, and Gauss-Markov terms added while each lowers J significantly."""
     cur = pb.solve(_Spec(LINEAR_TERMS))

@@ -21,7 +21,7 @@ import scipy.stats
 from rerun.chunk import RrdReader
 
 import fogcomp
-from fogcomp.base import Compensator, register
+from fogcomp import Compensator, register
 from fogcomp.units import DPH, DPS
 from fogbench import recording as R
 from fogbench.runner import run_scenario

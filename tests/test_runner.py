@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fogcomp.base import Compensator, DivergenceError, register
+from fogcomp import Compensator, DivergenceError, register
 from fogbench.scenario import RUNNER_SECTIONS, ScenarioError, load_plan, load_scenario
 from fogbench.suite import run_suite
 

@@ -39,7 +39,9 @@ import numpy as np
 from scipy.linalg.blas import dtrsv as _dtrsv
 
 from .._checks import _random_state
-from ..base import Compensator, DivergenceError, GyroData, register
+from .._data import GyroData
+from .._estimator import Compensator, DivergenceError
+from .._registry import register
 from ..units import DPH
 
 __all__ = [
@@ -670,7 +672,7 @@ class Flnn(_FlnnBase):
     overshoots the error by a factor ``alpha ||f||^2 ~ 10``). The normalised form (Widrow's
     alpha-LMS) is stable for ``0 < alpha < 2`` whatever the scaling, which is why it is the
     default; ``normalized=False`` gives the literal eq. 7 and raises
-    :class:`~fogcomp.base.DivergenceError` when it blows up.
+    :class:`~fogcomp.DivergenceError` when it blows up.
 
     The weights along the null space of the design (``|g| = 1`` data: ``d0 - d4 - d5 - d6``)
     never change under LMS (every update is along some ``f(k)``, orthogonal to it), so they keep

@@ -47,7 +47,9 @@ import warnings
 import numpy as np
 from filterpy.kalman import KalmanFilter
 
-from ..base import Compensator, GyroData, register
+from .._data import GyroData
+from .._estimator import Compensator
+from .._registry import register
 from ..units import DEG_RT_H, DPS
 
 __all__ = ["KalmanDenoiser", "variogram", "estimate_noise", "steady_state_gain",

@@ -36,7 +36,9 @@ import math
 import numpy as np
 from scipy.linalg.lapack import dgesv as _dgesv
 
-from ..base import Compensator, DivergenceError, GyroData, register
+from .._data import GyroData
+from .._estimator import Compensator, DivergenceError
+from .._registry import register
 from ..units import DPH
 from .._checks import _random_state
 from .flnn import (DEFAULT_RCOND, _restore_ident, _state_with_ident, _warn,

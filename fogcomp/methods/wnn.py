@@ -26,7 +26,9 @@ import pywt
 from scipy import signal
 
 from .._checks import _mode, _wavelet
-from ..base import Compensator, DivergenceError, GyroData, register
+from .._data import GyroData
+from .._estimator import Compensator, DivergenceError
+from .._registry import register
 from .._checks import _random_state
 
 __all__ = [
@@ -648,7 +650,7 @@ class WaveletNeuralNetwork(Compensator):
     eta1 and eta2 are multiplied by ``lr_inc`` when the loss fell from the previous iteration,
     by ``lr_dec`` when it rose (eqs. 13-14). There is no step rejection or stopping rule (the
     paper states none). A non-finite loss or one above ``DIVERGENCE_FACTOR`` times the initial
-    loss raises :class:`~fogcomp.base.DivergenceError`.
+    loss raises :class:`~fogcomp.DivergenceError`.
 
     *Initialisation* (the paper gives none): w_ij uniform in +-0.3/sqrt(k), b_j uniform in
     +-1, a_j = 3, w_j uniform in +-1/sqrt(l): with standardised inputs the hidden arguments

@@ -218,8 +218,22 @@ def auto_level(x, wavelet="db6", mode="symmetric", psd_ratio=3.0):
     mode = _mode(mode)
     if not (isinstance(psd_ratio, numbers.Real) and math.isfinite(psd_ratio) and psd_ratio > 0):
         raise ValueError(f"psd_ratio: expected a positive finite number, got {psd_ratio!r}")
+    lmax = max_level(x.shape[0], w)
+    crit = _level_criteria(x, w, mode, lmax)
+    ok = crit <= psd_ratio
+    if not ok[0]:
+        warnings.warn(f"level: no level separates the trend by the PSD criterion (value "
+                      f"{crit[0]:.3g} > psd_ratio = {psd_ratio} already at M = 1); using M = 1",
+                      stacklevel=2)
+        return 1, crit
+    level = int(np.argmin(ok)) if not ok.all() else lmax
+    return level, crit
+
+
+def _level_criteria(x: np.ndarray, w, mode: str, lmax: int) -> np.ndarray:
+    """The criterion of :func:`auto_level` for M = 1 .. ``lmax``, shape (lmax,): steps 1-3 of
+    its description (periodograms, noise floor, the largest band median over the floor)."""
     n = x.shape[0]
-    lmax = max_level(n, w)
     f, px = signal.periodogram(x, fs=1.0, window="hann", detrend="constant")
     top = (f >= 0.25) & (f < 0.5)
     floor = float(np.median(px[top]))
@@ -235,14 +249,7 @@ def auto_level(x, wavelet="db6", mode="symmetric", psd_ratio=3.0):
         _, prs = signal.periodogram(rs, fs=1.0, window="hann", detrend="constant", axis=-1)
         for m, pr in zip(levels, prs):
             crit[m - 1] = _criterion(pr, bands, j_max, m, floor)
-    ok = crit <= psd_ratio
-    if not ok[0]:
-        warnings.warn(f"level: no level separates the trend by the PSD criterion (value "
-                      f"{crit[0]:.3g} > psd_ratio = {psd_ratio} already at M = 1); using M = 1",
-                      stacklevel=2)
-        return 1, crit
-    level = int(np.argmin(ok)) if not ok.all() else lmax
-    return level, crit
+    return crit
 
 
 # ---------------------------------------------------------------------------------------------

@@ -70,7 +70,6 @@ _BASIS = {
 }
 
 
-
 # ---------------------------------------------------------------------------------------------
 # Allan deviation
 @dataclass(frozen=True)
@@ -335,6 +334,12 @@ def edf_greenhall(alpha: int, m: int, n_phase: int, d: int = 2,
        differences", Proc. 35th PTTI Meeting (2003/2004), eqs. 7-13, Tables 2 and 3.
     .. [2] W. J. Riley, NIST SP 1065 (2008), section 5.3.
     """
+    # One function on purpose (half of it is this docstring): Greenhall & Riley's
+    # algorithm as the paper states it, step after step (the filter length L, the number of
+    # summands M, then J and r; then the case of alpha: alpha <= 0, alpha = +1, alpha = +2,
+    # each the sum of eq. 10 or a large-M approximation, from Tables 2 and 3 or, for +2, in
+    # closed form), so that it reads against the paper and against
+    # allantools.ci.edf_greenhall line by line. The helpers above hold eqs. 7-10.
     if isinstance(alpha, bool) or int(alpha) != alpha or int(alpha) not in range(-4, 3):
         raise ValueError(f"alpha: expected an integer from -4 to +2, got {alpha!r}")
     alpha = int(alpha)

@@ -34,9 +34,9 @@ _CLASS_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*:"
 
 class PluginError(KeyError):
     """A plug-in method that cannot be used: its module does not import, or what it names is
-    not a usable :class:`~fogcomp.Compensator` subclass. The message gives the reason. (A KeyError, as an
-    unknown name is, so that callers refusing unknown methods refuse these too; the runner tells
-    them apart and reports the method as failed instead.)"""
+    not a usable :class:`~fogcomp.Compensator` subclass. The message gives the reason. (A
+    KeyError, as an unknown name is, so that callers refusing unknown methods refuse these too;
+    the runner tells them apart and reports the method as failed instead.)"""
 
     def __str__(self) -> str:
         return str(self.args[0]) if self.args else ""

@@ -9,21 +9,17 @@ serves a real recorded gyro log as well as the fogbench simulation.
 >>> clean = model.compensate(data)
 """
 
-from .base import (
-    Compensator,
-    DivergenceError,
-    GyroData,
-    ModelFileError,
-    NotFittedError,
+from ._data import GyroData
+from ._estimator import Compensator, DivergenceError, NotFittedError
+from ._persistence import ModelFileError, load_model, save_model
+from ._registry import (
     PluginError,
     available_methods,
     get_method,
-    load_model,
     make_method,
     method_id,
     plugin_problems,
     register,
-    save_model,
 )
 from .conformance import check_method
 

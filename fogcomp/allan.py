@@ -33,6 +33,8 @@ import numpy as np
 from scipy.optimize import nnls
 
 from ._checks import _sample_rate, _signal
+from ._stats import ONE_SIGMA_CI
+from .noise import avar_gm, identify_noise_model
 
 __all__ = [
     "AllanDeviation",
@@ -66,7 +68,6 @@ _BASIS = {
     "K": lambda t: t / 3.0,
     "R": lambda t: t**2 / 2.0,
 }
-
 
 
 # ---------------------------------------------------------------------------------------------
@@ -235,9 +236,6 @@ def oadev(rate, fs: float, taus=None) -> tuple[np.ndarray, np.ndarray]:
 
 # ---------------------------------------------------------------------------------------------
 # Confidence intervals: equivalent degrees of freedom of the overlapping Allan variance
-#: Probability content of a one-sigma interval, erf(1/sqrt(2)) = 0.6827.
-ONE_SIGMA_CI = math.erf(1.0 / math.sqrt(2.0))
-
 #: Power-law exponent alpha of the rate noise of each term, S_rate(f) ~ f**alpha (IEEE Std 952
 #: Table C.1 with NIST SP 1065 Table 5's naming: white angle = "white PM" alpha = +2, white rate
 #: = "white FM" 0, flicker rate = -1, random-walk rate = -2). The rate ramp is a drift, not a
@@ -336,6 +334,12 @@ def edf_greenhall(alpha: int, m: int, n_phase: int, d: int = 2,
        differences", Proc. 35th PTTI Meeting (2003/2004), eqs. 7-13, Tables 2 and 3.
     .. [2] W. J. Riley, NIST SP 1065 (2008), section 5.3.
     """
+    # One function on purpose (half of it is this docstring): Greenhall & Riley's
+    # algorithm as the paper states it, step after step (the filter length L, the number of
+    # summands M, then J and r; then the case of alpha: alpha <= 0, alpha = +1, alpha = +2,
+    # each the sum of eq. 10 or a large-M approximation, from Tables 2 and 3 or, for +2, in
+    # closed form), so that it reads against the paper and against
+    # allantools.ci.edf_greenhall line by line. The helpers above hold eqs. 7-10.
     if isinstance(alpha, bool) or int(alpha) != alpha or int(alpha) not in range(-4, 3):
         raise ValueError(f"alpha: expected an integer from -4 to +2, got {alpha!r}")
     alpha = int(alpha)
@@ -546,8 +550,6 @@ def _model_alpha(taus, model) -> np.ndarray:
     parts, alphas = [], []
     for term in model.in_model:
         if term.term == "GM":
-            from .noise import avar_gm
-
             parts.append(avar_gm(t, term.tau, model.fs) * term.value**2)
             alphas.append(np.where(t < term.tau, -2, 0))
         else:
@@ -613,8 +615,6 @@ def allan_analysis(rate, fs: float, taus=None, *, ci: float = ONE_SIGMA_CI, mode
     curve : AllanCI
     model : fogcomp.noise.NoiseModel
     """
-    from .noise import identify_noise_model
-
     y = _check_rate(rate)
     fs = _check_fs(fs)
     segs = [(0, y.shape[0])] if segments is None else [(int(a), int(b)) for a, b in segments]

@@ -39,10 +39,13 @@ from pathlib import Path
 
 import numpy as np
 
+from ._data import GyroData
+from ._estimator import NotFittedError
 from ._limits import MethodTimeout, time_limit
-from .base import GyroData, NotFittedError, class_problem, get_method, load_model
+from ._persistence import load_model
+from ._registry import class_problem, get_method
 
-__all__ = ["RULES", "RuleResult", "MethodCheck", "check_method"]
+__all__ = ["RULES", "MethodCheck", "RuleResult", "check_method"]
 
 RULES = ("init_stores_only", "get_params_round_trip", "check_params_refuses_wrong_types",
          "fit_returns_self", "not_fitted_raises", "inputs_not_modified", "reproducible",

@@ -226,76 +226,116 @@ def simulate_fog(params: FogParams, fs: float, truth_rate: np.ndarray, specific_
     na = len(axes)
     dT = None if temp is None else np.asarray(temp, dtype=float) - p.temp_ref
     Tdot = None if temp_rate is None else np.asarray(temp_rate, dtype=float)
-    dt = 1.0 / fs
-    g_nom = np.broadcast_to(np.asarray(p.g_sens, dtype=float), (na, 3))
-    g2_nom = np.broadcast_to(np.asarray(p.g2_sens, dtype=float), (na, 6))
-    M = np.asarray(p.misalignment, dtype=float)
     enabled = set(TERMS) - set(p.disabled)
-    draws = {"switch_on_bias": np.zeros(na), "g_sens": np.array(g_nom),
-             "g2_sens": np.array(g2_nom)}
+    draws = {"switch_on_bias": np.zeros(na),
+             "g_sens": np.array(np.broadcast_to(np.asarray(p.g_sens, dtype=float), (na, 3))),
+             "g2_sens": np.array(np.broadcast_to(np.asarray(p.g2_sens, dtype=float), (na, 6)))}
     per_axis: dict[str, list] = {}  # term -> [array (n,) or None per axis]
-
-    def put(term, j, value):
-        if term in enabled:
-            per_axis.setdefault(term, [None] * na)[j] = value
-
     for j, name in enumerate(axes):
         ai = AXES[name]
-        w = truth_rate[:, ai]
-        if p.bias:
-            put("constant_bias", j, np.broadcast_to(p.bias, (n,)))
-        if p.switch_on_bias_sigma:
-            b = _stream(seed, "switch_on_bias", ai).standard_normal() * p.switch_on_bias_sigma
-            draws["switch_on_bias"][j] = b
-            put("switch_on_bias", j, np.broadcast_to(b, (n,)))
-        if p.arw and "arw" in enabled:
-            put("arw", j, _stream(seed, "arw", ai).standard_normal(n) * (p.arw * math.sqrt(fs)))
-        if p.bias_instability and "bias_instability" in enabled:
-            put("bias_instability", j, _bias_instability(
-                n, fs, p.bias_instability, p.bi_band, p.bi_per_decade,
-                _stream(seed, "bias_instability", ai)))
-        if p.gm_drift and "gm_drift" in enabled:
-            rng = _stream(seed, "gm_drift", ai)
-            phi = math.exp(-1.0 / (fs * p.gm_time_constant))
-            e = rng.standard_normal(n) * (p.gm_drift * math.sqrt(1.0 - phi * phi))
-            e[0] = rng.standard_normal() * p.gm_drift
-            put("gm_drift", j, lfilter([1.0], [1.0, -phi], e))
-        if p.rrw and "rrw" in enabled:
-            steps = _stream(seed, "rrw", ai).standard_normal(n) * (p.rrw * math.sqrt(dt))
-            put("rrw", j, np.cumsum(steps) - 0.5 * steps)  # mean over each interval
-        if p.rate_ramp:
-            put("rate_ramp", j, p.rate_ramp * (np.arange(n) + 0.5) * dt)
-        if p.scale_factor or p.sf_nonlinearity or (p.sf_temp_coeff and dT is not None):
-            k = p.scale_factor if dT is None else p.scale_factor + p.sf_temp_coeff * dT
-            put("scale_factor", j, k * w + p.sf_nonlinearity * w * np.abs(w) / p.full_scale)
-        if np.any(M[ai]):
-            others = [b for b in range(3) if b != ai]
-            put("misalignment", j, truth_rate[:, others] @ M[ai, others])
-        if p.g_sens_switch_on_sigma:
-            draws["g_sens"][j] += (_stream(seed, "g_switch_on", ai).standard_normal(3)
-                                   * p.g_sens_switch_on_sigma)
-        if p.g2_sens_switch_on_sigma:
-            draws["g2_sens"][j] += (_stream(seed, "g2_switch_on", ai).standard_normal(6)
-                                    * p.g2_sens_switch_on_sigma)
-        if np.any(draws["g_sens"][j]):
-            put("g_sensitivity", j, f @ draws["g_sens"][j])
-        if np.any(draws["g2_sens"][j]):
-            d = draws["g2_sens"][j]
-            fx, fy, fz = f[:, 0], f[:, 1], f[:, 2]
-            put("g2_sensitivity", j, (d[0] * fx + d[3] * fy + d[5] * fz) * fx
-                + (d[1] * fy + d[4] * fz) * fy + d[2] * fz * fz)
-        shupe = None
-        if Tdot is not None and (p.temp_rate_coeff or p.temp_cross_coeff):
-            cross = 0.0 if dT is None else p.temp_cross_coeff * dT
-            shupe = (p.temp_rate_coeff + cross) * Tdot
-            if p.temp_rate_cooling_ratio != 1.0:
-                shupe = np.where(Tdot < 0.0, p.temp_rate_cooling_ratio * shupe, shupe)
-        if dT is not None and (p.temp_coeff or p.temp_coeff2):
-            put("temperature", j, (p.temp_coeff + p.temp_coeff2 * dT) * dT
-                + (0.0 if shupe is None else shupe))
-        elif shupe is not None:
-            put("temperature", j, shupe)
+        axis_terms = (_noise_terms(p, fs, n, seed, ai, enabled)
+                      + _bias_and_scale_terms(p, fs, n, seed, ai, j, truth_rate, dT, draws)
+                      + _g_terms(p, seed, ai, j, f, draws)
+                      + _temperature_terms(p, dT, Tdot))
+        for term, value in axis_terms:
+            if term in enabled:
+                per_axis.setdefault(term, [None] * na)[j] = value
+    terms = _stack_terms(per_axis, n, na)
+    cont = truth_rate[:, [AXES[a] for a in axes]].copy()
+    for k, v in terms.items():
+        if k != "quantization":
+            cont += v
+    cont, saturated = _saturate(cont, p, enabled, terms)
+    raw = _quantize(cont, p, enabled, terms, axes, fs, seed)
+    return FogOutput(raw=raw, terms=terms, draws=draws, axes=tuple(axes), saturated=saturated)
 
+
+def _noise_terms(p: FogParams, fs: float, n: int, seed: int, ai: int, enabled) -> list:
+    """(term, rate error (n,)) of the noises of axis ``ai``, each from its own stream: white
+    rate, flicker, Gauss-Markov drift, rate random walk (only those switched on are drawn)."""
+    out = []
+    if p.arw and "arw" in enabled:
+        out.append(("arw", _stream(seed, "arw", ai).standard_normal(n) * (p.arw * math.sqrt(fs))))
+    if p.bias_instability and "bias_instability" in enabled:
+        out.append(("bias_instability", _bias_instability(
+            n, fs, p.bias_instability, p.bi_band, p.bi_per_decade,
+            _stream(seed, "bias_instability", ai))))
+    if p.gm_drift and "gm_drift" in enabled:
+        rng = _stream(seed, "gm_drift", ai)
+        phi = math.exp(-1.0 / (fs * p.gm_time_constant))
+        e = rng.standard_normal(n) * (p.gm_drift * math.sqrt(1.0 - phi * phi))
+        e[0] = rng.standard_normal() * p.gm_drift
+        out.append(("gm_drift", lfilter([1.0], [1.0, -phi], e)))
+    if p.rrw and "rrw" in enabled:
+        steps = _stream(seed, "rrw", ai).standard_normal(n) * (p.rrw * math.sqrt(1.0 / fs))
+        out.append(("rrw", np.cumsum(steps) - 0.5 * steps))  # mean over each interval
+    return out
+
+
+def _bias_and_scale_terms(p: FogParams, fs: float, n: int, seed: int, ai: int, j: int,
+                          truth_rate: np.ndarray, dT, draws: dict) -> list:
+    """(term, rate error (n,)) of the biases (constant, switch-on: its draw is kept in
+    ``draws``, ramp) and of the rate's own errors (scale factor, misalignment) of axis ``ai``,
+    the ``j``-th output."""
+    out = []
+    w = truth_rate[:, ai]
+    if p.bias:
+        out.append(("constant_bias", np.broadcast_to(p.bias, (n,))))
+    if p.switch_on_bias_sigma:
+        b = _stream(seed, "switch_on_bias", ai).standard_normal() * p.switch_on_bias_sigma
+        draws["switch_on_bias"][j] = b
+        out.append(("switch_on_bias", np.broadcast_to(b, (n,))))
+    if p.rate_ramp:
+        out.append(("rate_ramp", p.rate_ramp * (np.arange(n) + 0.5) * (1.0 / fs)))
+    if p.scale_factor or p.sf_nonlinearity or (p.sf_temp_coeff and dT is not None):
+        k = p.scale_factor if dT is None else p.scale_factor + p.sf_temp_coeff * dT
+        out.append(("scale_factor", k * w + p.sf_nonlinearity * w * np.abs(w) / p.full_scale))
+    M = np.asarray(p.misalignment, dtype=float)
+    if np.any(M[ai]):
+        others = [b for b in range(3) if b != ai]
+        out.append(("misalignment", truth_rate[:, others] @ M[ai, others]))
+    return out
+
+
+def _g_terms(p: FogParams, seed: int, ai: int, j: int, f: np.ndarray, draws: dict) -> list:
+    """(term, rate error (n,)) of the g and g^2 sensitivities of axis ``ai`` (the ``j``-th
+    output), their switch-on draws added to ``draws`` first."""
+    out = []
+    if p.g_sens_switch_on_sigma:
+        draws["g_sens"][j] += (_stream(seed, "g_switch_on", ai).standard_normal(3)
+                               * p.g_sens_switch_on_sigma)
+    if p.g2_sens_switch_on_sigma:
+        draws["g2_sens"][j] += (_stream(seed, "g2_switch_on", ai).standard_normal(6)
+                                * p.g2_sens_switch_on_sigma)
+    if np.any(draws["g_sens"][j]):
+        out.append(("g_sensitivity", f @ draws["g_sens"][j]))
+    if np.any(draws["g2_sens"][j]):
+        d = draws["g2_sens"][j]
+        fx, fy, fz = f[:, 0], f[:, 1], f[:, 2]
+        out.append(("g2_sensitivity", (d[0] * fx + d[3] * fy + d[5] * fz) * fx
+                    + (d[1] * fy + d[4] * fz) * fy + d[2] * fz * fz))
+    return out
+
+
+def _temperature_terms(p: FogParams, dT, Tdot) -> list:
+    """[("temperature", rate error (n,))]: the temperature and its rate's (Shupe) terms, with
+    the cooling ratio where the coil cools; [] when neither applies."""
+    shupe = None
+    if Tdot is not None and (p.temp_rate_coeff or p.temp_cross_coeff):
+        cross = 0.0 if dT is None else p.temp_cross_coeff * dT
+        shupe = (p.temp_rate_coeff + cross) * Tdot
+        if p.temp_rate_cooling_ratio != 1.0:
+            shupe = np.where(Tdot < 0.0, p.temp_rate_cooling_ratio * shupe, shupe)
+    if dT is not None and (p.temp_coeff or p.temp_coeff2):
+        return [("temperature", (p.temp_coeff + p.temp_coeff2 * dT) * dT
+                 + (0.0 if shupe is None else shupe))]
+    if shupe is not None:
+        return [("temperature", shupe)]
+    return []
+
+
+def _stack_terms(per_axis: dict, n: int, na: int) -> dict:
+    """term -> (n, na) in the order of ``TERMS``; an axis a term does not touch is zero."""
     terms = {}
     for t in TERMS:
         if t not in per_axis:
@@ -305,28 +345,35 @@ def simulate_fog(params: FogParams, fs: float, truth_rate: np.ndarray, specific_
             terms[t] = cols[0][:, None]
         else:
             terms[t] = np.stack([np.zeros(n) if v is None else v for v in cols], axis=1)
-    idx = [AXES[a] for a in axes]
-    cont = truth_rate[:, idx].copy()
-    for k, v in terms.items():
-        if k != "quantization":
-            cont += v
-    saturated = np.zeros((n, na), dtype=bool)
+    return terms
+
+
+def _saturate(cont: np.ndarray, p: FogParams, enabled, terms: dict):
+    """(output clipped to the measurement range, where it was beyond it (n, na)); the clipping
+    is added to ``terms`` as "saturation"."""
+    saturated = np.zeros(cont.shape, dtype=bool)
     if math.isfinite(p.range):
         saturated = np.abs(cont) > p.range
         if saturated.any() and "saturation" in enabled:
             clipped = np.clip(cont, -p.range, p.range)
             terms["saturation"] = clipped - cont
             cont = clipped
-    if "quantization" in enabled and p.quantization:
-        Q = p.quantization
-        qterm = np.empty((n, na))
-        for j, name in enumerate(axes):
-            phase = _stream(seed, "quantization", AXES[name]).uniform(0.0, 1.0)
-            counts = np.floor(np.cumsum(cont[:, j]) * (dt / Q) + phase)
-            inc = np.diff(counts, prepend=0.0) * Q
-            qterm[:, j] = inc * fs - cont[:, j]
-        terms["quantization"] = qterm
-        raw = cont + qterm
-    else:
-        raw = cont
-    return FogOutput(raw=raw, terms=terms, draws=draws, axes=tuple(axes), saturated=saturated)
+    return cont, saturated
+
+
+def _quantize(cont: np.ndarray, p: FogParams, enabled, terms: dict, axes, fs: float,
+              seed: int) -> np.ndarray:
+    """The output counted in angle quanta (a random phase per axis at power-on), its error
+    added to ``terms`` as "quantization"; ``cont`` unchanged when that term is off."""
+    if not ("quantization" in enabled and p.quantization):
+        return cont
+    Q = p.quantization
+    dt = 1.0 / fs
+    qterm = np.empty(cont.shape)
+    for j, name in enumerate(axes):
+        phase = _stream(seed, "quantization", AXES[name]).uniform(0.0, 1.0)
+        counts = np.floor(np.cumsum(cont[:, j]) * (dt / Q) + phase)
+        inc = np.diff(counts, prepend=0.0) * Q
+        qterm[:, j] = inc * fs - cont[:, j]
+    terms["quantization"] = qterm
+    return cont + qterm

@@ -116,16 +116,17 @@ def predicted_precision(case_co: dict, gm: list, fs: float, n: int) -> dict:
     """Relative one-sigma of each configured term's coefficient (its square root) under the
     configured model, from the estimator's covariance of a record of n samples."""
     import fogcomp.noise as NZ
+    from fogcomp.noise import _fit
 
     m = 2 ** np.arange(int(math.floor(math.log2((n - 1) // 2))) + 1)
     t = m / fs
     v = NZ.avar_model(t, case_co, gm, fs)
-    pb = NZ._Problem(t, v, m, (n,), fs, 0.001)
+    pb = _fit._Problem(t, v, m, (n,), fs, 0.001)
     pb.set_weights(case_co, gm)
-    spec = NZ._Spec(tuple(k for k in NZ.LINEAR_TERMS if k in case_co),
+    spec = _fit._Spec(tuple(k for k in NZ.LINEAR_TERMS if k in case_co),
                     tuple(T for _, T in gm))
     coef = np.array([case_co[k] ** 2 for k in spec.linear] + [s**2 for s, _ in gm])
-    cov = NZ._param_cov(pb, NZ._Fit(spec, coef, 0.0))
+    cov = _fit._param_cov(pb, _fit._Fit(spec, coef, 0.0))
     out = {}
     for i, k in enumerate(spec.linear):
         out[k] = math.sqrt(cov[i, i]) / coef[i] / 2

@@ -20,7 +20,7 @@ MANIFEST_VERSION = 2
 
 
 def _canonical_sha256(doc: dict) -> str:
-    from fogcomp.base import _canonical_sha256 as sha
+    from fogcomp._persistence import _canonical_sha256 as sha
 
     return sha(doc)
 
@@ -41,7 +41,7 @@ def _file_sha256(path) -> str:
 
 
 def _model_error(path, text: str):
-    from fogcomp.base import ModelFileError
+    from fogcomp import ModelFileError
 
     return ModelFileError(f"{path}: {text}")
 

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fogcomp.base import atomic_write_bytes
+from fogcomp._persistence import atomic_write_bytes
 
 __all__ = ["atomic_write_bytes", "atomic_write_text", "save_figure", "json_ready", "versions"]
 

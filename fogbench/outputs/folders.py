@@ -284,7 +284,7 @@ class Claim:
 # else's file, never an input, all or nothing
 def _named(exc: OSError, path) -> OSError:
     """``exc`` naming ``path`` when it names no file (a write on a full disk names none)."""
-    from fogcomp.base import _named as named
+    from fogcomp._persistence import _named as named
 
     return named(exc, path)
 

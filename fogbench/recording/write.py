@@ -131,7 +131,7 @@ def write_recording(res, path: Path, replicates: dict | None = None) -> None:
         data = mem.drain_as_bytes()
     finally:
         rec.disconnect()
-    from fogcomp.base import atomic_write_bytes
+    from fogcomp._persistence import atomic_write_bytes
 
     atomic_write_bytes(path, data)
 

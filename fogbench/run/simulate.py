@@ -49,7 +49,7 @@ from pathlib import Path
 import numpy as np
 
 from fogbench.outputs.files import atomic_write_text, versions
-from fogcomp.base import atomic_write_bytes
+from fogcomp._persistence import atomic_write_bytes
 
 __all__ = ["write_run", "write_manifest", "simulate_to_dir"]
 

@@ -39,7 +39,9 @@ import numpy as np
 from scipy.linalg.blas import dtrsv as _dtrsv
 
 from .._checks import _random_state
-from ..base import Compensator, DivergenceError, GyroData, register
+from .._data import GyroData
+from .._estimator import Compensator, DivergenceError
+from .._registry import register
 from ..units import DPH
 
 __all__ = [
@@ -308,59 +310,111 @@ def lstsq_identify(X: np.ndarray, y: np.ndarray, names, rcond: float = DEFAULT_R
     if zero.any():          # such a column identifies nothing: its coefficient is in the null space
         X = X.copy()
         X[:, zero] = 0.0
-    U, S, Vt = np.linalg.svd(X / s, full_matrices=False)
-    S_full = np.zeros(p)
-    S_full[:S.size] = S
-    tol = rcond * S_full[0] if S_full[0] > 0 else np.inf
-    r = int(np.sum(S_full > tol))
-    c = Vt[:r].T @ ((U[:, :r].T @ y) / S[:r]) if r else np.zeros(p)
-    coef = c / s
+    coef, S, Vt, S_full, r = _min_norm_solution(X, y, s, rcond)
     resid = y - X @ coef
     dof = n - r
     sigma = float(np.sqrt(resid @ resid / dof)) if dof > 0 else float("nan")
     # covariance of the minimum-norm estimate, sigma^2 (X^T X)^+, back in physical coordinates
     Vr = Vt[:r].T / S[:r]
     cov = (sigma ** 2) * (Vr @ Vr.T) / np.outer(s, s)
-    # null space: rows r.. of V^T (scaled coordinates), mapped to physical and re-orthonormalised
-    if r < p:
-        Vfull = Vt if Vt.shape[0] == p else np.linalg.svd(X / s, full_matrices=True)[2]
-        Q, _ = np.linalg.qr(Vfull[r:].T / s[:, None])        # (p, k), physical coordinates
-        # weights below 1e-3 of a direction's largest come from the design's own small errors
-        # (|g| not exactly 1 on a real table), not from the structure: drop them
-        Q = np.where(np.abs(Q) < 1e-3 * np.abs(Q).max(axis=0, keepdims=True), 0.0, Q)
-        # a readable basis of that subspace: reduced row-echelon rows, then Gram-Schmidt
-        null, _ = np.linalg.qr(_rref(Q.T, tol=1e-12).T)
-        null = null.T
-        for i in range(null.shape[0]):                       # first non-zero weight > 0
-            if null[i, int(np.argmax(np.abs(null[i]) > 1e-8))] < 0:
-                null[i] = -null[i]
-        null[np.abs(null) < 1e-13] = 0.0
-    else:
-        null = np.zeros((0, p))
+    null = _null_basis(X, s, Vt, r)
     in_null = np.max(np.abs(null), axis=0) > _NULL_TOL if null.size else np.zeros(p, bool)
     identified = ~in_null
     stderr = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     stderr[~identified] = np.nan
-    # identified combinations of the unidentified coefficients: complement of the null space
-    J = np.flatnonzero(in_null)
-    if J.size:
-        NJ = null[:, J].T                                     # (|J|, k)
-        Uj, Sj, _ = np.linalg.svd(NJ, full_matrices=True)
-        k = int(np.sum(Sj > 1e-10))
-        comp = Uj[:, k:].T                                    # (|J| - k, |J|)
-        comp = _rref(comp) if comp.size else comp
-        comb = np.zeros((comp.shape[0], p))
-        comb[:, J] = comp
-    else:
-        comb = np.zeros((0, p))
+    comb = _identified_combinations(null, in_null)
     comb_val = comb @ coef
     comb_se = np.sqrt(np.clip(np.einsum("ij,jk,ik->i", comb, cov, comb), 0.0, None))
     cond = float(S_full[0] / S_full[-1]) if S_full[-1] > 0 else float("inf")
     cond_id = float(S_full[0] / S_full[r - 1]) if r else float("inf")
+    summary = _identifiability_summary(label, names, n, r, cond, cond_id, null, in_null,
+                                       comb)
+    report = Identifiability(
+        names=names, rank=r, n_terms=p, n_samples=n, condition=cond, condition_identified=cond_id,
+        singular_values=S_full, null_basis=null, identified=identified, stderr=stderr,
+        sigma=sigma, combinations=comb, combination_values=comb_val, combination_stderr=comb_se,
+        summary=summary)
+    if warn:
+        _warn_identifiability(report, label)
+    return coef, report
+
+
+def _min_norm_solution(X: np.ndarray, y: np.ndarray, s: np.ndarray, rcond: float):
+    """The SVD of the column-scaled design ``X / s`` and the minimum-norm solution in those
+    coordinates, back in physical ones: (coef, S, Vt, S_full, r), ``S_full`` the singular values
+    padded with zeros to p, ``r`` the numerical rank (those above ``rcond`` times the largest)."""
+    p = X.shape[1]
+    U, S, Vt = np.linalg.svd(X / s, full_matrices=False)
+    S_full = np.zeros(p)
+    S_full[:S.size] = S
+    tol = rcond * S_full[0] if S_full[0] > 0 else np.inf
+    r = int(np.sum(S_full > tol))
+    c = Vt[:r].T @ ((U[:, :r].T @ y) / S[:r]) if r else np.zeros(p)
+    return c / s, S, Vt, S_full, r
+
+
+def _warn_identifiability(report: Identifiability, label: str) -> None:
+    """An :class:`IdentifiabilityWarning` when the design is rank-deficient (the report's lines)
+    or its identified part has a condition number above ``COND_WARN``."""
+    if report.rank < report.n_terms:
+        _warn("; ".join(report.summary[1:]), IdentifiabilityWarning)
+    elif report.condition_identified > COND_WARN:
+        _warn(f"{label}: design badly conditioned (condition number "
+              f"{report.condition_identified:.3g} > {COND_WARN:g} after column scaling); see the "
+              "stderr of each coefficient in identifiability_", IdentifiabilityWarning)
+
+
+def _null_basis(X: np.ndarray, s: np.ndarray, Vt: np.ndarray, r: int) -> np.ndarray:
+    """A readable orthonormal basis of the design's null space, shape (p - r, p), in physical
+    coordinates: rows r.. of V^T (the SVD of the column-scaled design ``X / s``) mapped back,
+    small weights dropped, in reduced row-echelon form, each row's first weight positive."""
+    p = X.shape[1]
+    if r >= p:
+        return np.zeros((0, p))
+    Vfull = Vt if Vt.shape[0] == p else np.linalg.svd(X / s, full_matrices=True)[2]
+    Q, _ = np.linalg.qr(Vfull[r:].T / s[:, None])        # (p, k), physical coordinates
+    # weights below 1e-3 of a direction's largest come from the design's own small errors
+    # (|g| not exactly 1 on a real table), not from the structure: drop them
+    Q = np.where(np.abs(Q) < 1e-3 * np.abs(Q).max(axis=0, keepdims=True), 0.0, Q)
+    # a readable basis of that subspace: reduced row-echelon rows, then Gram-Schmidt
+    null, _ = np.linalg.qr(_rref(Q.T, tol=1e-12).T)
+    null = null.T
+    for i in range(null.shape[0]):                       # first non-zero weight > 0
+        if null[i, int(np.argmax(np.abs(null[i]) > 1e-8))] < 0:
+            null[i] = -null[i]
+    null[np.abs(null) < 1e-13] = 0.0
+    return null
+
+
+def _identified_combinations(null: np.ndarray, in_null: np.ndarray) -> np.ndarray:
+    """The combinations of the coefficients not identified one by one (``in_null``) that the
+    design does identify: the complement of the null space among them, shape (c, p), reduced
+    row-echelon rows."""
+    p = in_null.shape[0]
+    J = np.flatnonzero(in_null)
+    if not J.size:
+        return np.zeros((0, p))
+    NJ = null[:, J].T                                     # (|J|, k)
+    Uj, Sj, _ = np.linalg.svd(NJ, full_matrices=True)
+    k = int(np.sum(Sj > 1e-10))
+    comp = Uj[:, k:].T                                    # (|J| - k, |J|)
+    comp = _rref(comp) if comp.size else comp
+    comb = np.zeros((comp.shape[0], p))
+    comb[:, J] = comp
+    return comb
+
+
+def _identifiability_summary(label: str, names: tuple, n: int, r: int, cond: float,
+                             cond_id: float, null: np.ndarray, in_null: np.ndarray,
+                             comb: np.ndarray) -> list[str]:
+    """The report's lines: rank and conditioning; for a rank-deficient design the coefficients
+    not identifiable one by one, the null directions and the combinations identified instead;
+    the coefficients identified one by one."""
+    p = in_null.shape[0]
     summary = [f"{label}: rank {r} of {p} ({n} samples), condition number {cond:.3g} "
                f"(identified part {cond_id:.3g})"]
     if r < p:
-        unid = [names[j] for j in J]
+        unid = [names[j] for j in np.flatnonzero(in_null)]
         summary.append(f"not identifiable one by one: {', '.join(unid)}")
         for v in null:
             summary.append("null direction (no effect on the fit): "
@@ -370,22 +424,11 @@ def lstsq_identify(X: np.ndarray, y: np.ndarray, names, rcond: float = DEFAULT_R
                 _format_combination(a, names) for a in comb))
         summary.append("minimum-norm solution (column-scaled coordinates) reported for "
                        + ", ".join(unid))
+    identified = ~in_null
     if np.any(identified):
         summary.append("identified one by one: " + ", ".join(
             names[j] for j in np.flatnonzero(identified)))
-    report = Identifiability(
-        names=names, rank=r, n_terms=p, n_samples=n, condition=cond, condition_identified=cond_id,
-        singular_values=S_full, null_basis=null, identified=identified, stderr=stderr,
-        sigma=sigma, combinations=comb, combination_values=comb_val, combination_stderr=comb_se,
-        summary=summary)
-    if warn:
-        if r < p:
-            _warn("; ".join(summary[1:]), IdentifiabilityWarning)
-        elif cond_id > COND_WARN:
-            _warn(f"{label}: design badly conditioned (condition number {cond_id:.3g} "
-                  f"> {COND_WARN:g} after column scaling); see the stderr of each "
-                  "coefficient in identifiability_", IdentifiabilityWarning)
-    return coef, report
+    return summary
 
 
 # ---------------------------------------------------------------------------------------------
@@ -670,7 +713,7 @@ class Flnn(_FlnnBase):
     overshoots the error by a factor ``alpha ||f||^2 ~ 10``). The normalised form (Widrow's
     alpha-LMS) is stable for ``0 < alpha < 2`` whatever the scaling, which is why it is the
     default; ``normalized=False`` gives the literal eq. 7 and raises
-    :class:`~fogcomp.base.DivergenceError` when it blows up.
+    :class:`~fogcomp.DivergenceError` when it blows up.
 
     The weights along the null space of the design (``|g| = 1`` data: ``d0 - d4 - d5 - d6``)
     never change under LMS (every update is along some ``f(k)``, orthogonal to it), so they keep

@@ -47,7 +47,9 @@ import warnings
 import numpy as np
 from filterpy.kalman import KalmanFilter
 
-from ..base import Compensator, GyroData, register
+from .._data import GyroData
+from .._estimator import Compensator
+from .._registry import register
 from ..units import DEG_RT_H, DPS
 
 __all__ = ["KalmanDenoiser", "variogram", "estimate_noise", "steady_state_gain",
@@ -153,17 +155,7 @@ def local_level_filter(z: np.ndarray, q: float, r: float, x0: float, p0: float,
             x = _rts_filterpy(x, p, q, r)
         return x, p
     if q == 0.0:
-        # the running mean: with prior weight w0 = r / p0 (in samples), x_k is the weighted
-        # mean of x0 and z_0..z_k, P_k = r / (w0 + k + 1)
-        k = np.arange(1, n + 1, dtype=float)
-        w0 = r / p0 if p0 > 0 else math.inf
-        if math.isinf(w0):
-            return np.full(n, float(x0)), np.zeros(n)
-        x = (w0 * x0 + np.cumsum(z)) / (w0 + k)
-        p = r / (w0 + k)
-        if smoother:
-            x = np.full(n, x[-1])
-        return x, p
+        return _running_mean(z, r, x0, p0, smoother)
     L = _transient_length(q, r, p0, n)
     x = np.empty(n)
     p = np.empty(n)
@@ -179,6 +171,33 @@ def local_level_filter(z: np.ndarray, q: float, r: float, x0: float, p0: float,
         p[L:] = p_ss
     if not smoother or n == 1:
         return x, p
+    return _smooth(x, p, q, L, p_ss), p
+
+
+def _running_mean(z: np.ndarray, r: float, x0: float, p0: float, smoother: bool
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """The local-level filter with q = 0, in closed form: the running mean. With prior weight
+    w0 = r / p0 (in samples), x_k is the weighted mean of x0 and z_0..z_k, P_k = r / (w0 + k + 1);
+    smoothed, every estimate is the last one."""
+    n = z.shape[0]
+    k = np.arange(1, n + 1, dtype=float)
+    w0 = r / p0 if p0 > 0 else math.inf
+    if math.isinf(w0):
+        return np.full(n, float(x0)), np.zeros(n)
+    x = (w0 * x0 + np.cumsum(z)) / (w0 + k)
+    p = r / (w0 + k)
+    if smoother:
+        x = np.full(n, x[-1])
+    return x, p
+
+
+def _smooth(x: np.ndarray, p: np.ndarray, q: float, L: int, p_ss: float) -> np.ndarray:
+    """RTS-smoothed estimates from the filtered ones ``x`` (variances ``p``): over the steady
+    part (samples L..) the steady smoother as a backward first-order recursion, over the
+    transient (..L) filterpy's smoother."""
+    from scipy.signal import lfilter, lfiltic
+
+    n = x.shape[0]
     xs = x.copy()
     if L < n:
         c = p_ss / (p_ss + q)
@@ -196,7 +215,7 @@ def local_level_filter(z: np.ndarray, q: float, r: float, x0: float, p0: float,
         if m > L:
             xt[-1] = xs[L]   # (the smoothed means depend on the filtered variances alone)
         xs[:m] = _rts_scalar(xt, p[:m], q)
-    return xs, p
+    return xs
 
 
 def _rts_scalar(x: np.ndarray, p: np.ndarray, q: float) -> np.ndarray:

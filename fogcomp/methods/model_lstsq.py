@@ -23,7 +23,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..base import Compensator, DivergenceError, GyroData, register
+from .._data import GyroData
+from .._estimator import Compensator, DivergenceError
+from .._registry import register
 from ..units import DPH, PPM
 from .flnn import DEFAULT_RCOND, _restore_ident, _state_with_ident, lstsq_identify
 

@@ -36,7 +36,9 @@ import math
 import numpy as np
 from scipy.linalg.lapack import dgesv as _dgesv
 
-from ..base import Compensator, DivergenceError, GyroData, register
+from .._data import GyroData
+from .._estimator import Compensator, DivergenceError
+from .._registry import register
 from ..units import DPH
 from .._checks import _random_state
 from .flnn import (DEFAULT_RCOND, _restore_ident, _state_with_ident, _warn,
@@ -303,22 +305,14 @@ def train_lm(theta, x, t, hidden_size, max_epochs=1000, goal=1e-5):
     t = np.asarray(t, dtype=float)
     theta = np.asarray(theta, dtype=float).copy()
     P = theta.size
-    iw, ib, iv = H * m, H * m + H, H * m + 2 * H       # ends of W1, b1, W2 in theta
     # J^T, shape (P, n), filled in place each epoch from the hidden outputs the accepted step
     # already computed (one tanh per trial step, none for the Jacobian); J^T J is most of an
     # epoch's cost (37 x 37 x n multiply-adds).
     JT = np.empty((P, n))
     JT[-1] = 1.0                                     # dy/db2
-    JW1 = JT[:iw].reshape(H, m, n)                   # dy/dW1[j, i] = (1 - h_j^2) W2_j x_i
-    Jb1, JW2 = JT[iw:ib], JT[ib:iv]                  # dy/db1[j] = (1 - h_j^2) W2_j; dy/dW2 = h
     diag = np.arange(P) * (P + 1)
-
-    def hidden(th):
-        return _hidden_t(th, xT, H)[0]
-
-    h = hidden(theta)
-    e = theta[ib:iv] @ h
-    e += theta[-1] - t
+    h = _hidden_t(theta, xT, H)[0]
+    e = _lm_error(theta, h, t, H, m)
     loss = float(e @ e) / n
     losses = [loss]
     stop = "epochs"
@@ -327,33 +321,13 @@ def train_lm(theta, x, t, hidden_size, max_epochs=1000, goal=1e-5):
         if loss <= goal:
             stop = "goal"
             break
-        np.multiply(h, h, out=Jb1)
-        np.subtract(1.0, Jb1, out=Jb1)
-        Jb1 *= theta[ib:iv, None]
-        np.multiply(Jb1[:, None, :], xT[None, :, :], out=JW1)
-        JW2[:] = h
+        _fill_jacobian_t(JT, theta, h, xT, H)
         JtJ = JT @ JT.T
         Jte = JT @ e
         if 2.0 * math.sqrt(float(Jte @ Jte)) / n < LM_MIN_GRAD:
             stop = "min_grad"
             break
-        while True:
-            A = JtJ.copy()
-            A.flat[diag] += mu
-            # LAPACK's LU solve, as numpy.linalg.solve, without its per-call checks (a third
-            # of an epoch on a few hundred samples); info > 0: singular, raise mu
-            step, info = _dgesv(A, Jte, overwrite_a=1)[2:]
-            if info == 0:
-                cand = theta - step
-                h2 = hidden(cand)
-                e2 = cand[ib:iv] @ h2
-                e2 += cand[-1] - t
-                loss2 = float(e2 @ e2) / n
-                if np.isfinite(loss2) and loss2 < loss:
-                    break
-            mu *= LM_MU_INC
-            if mu > LM_MU_MAX:
-                break
+        cand, h2, e2, loss2, mu = _lm_trial(theta, JtJ, Jte, diag, mu, loss, xT, t, H)
         if mu > LM_MU_MAX:
             stop = "mu_max"
             break
@@ -364,6 +338,53 @@ def train_lm(theta, x, t, hidden_size, max_epochs=1000, goal=1e-5):
         if loss <= goal:
             stop = "goal"
     return theta, np.asarray(losses), stop
+
+
+def _lm_error(theta, h, t, H: int, m: int) -> np.ndarray:
+    """The network's output minus the target, ``W2 h + b2 - t``, shape (n,), from the hidden
+    outputs ``h`` (H, n)."""
+    ib, iv = H * m + H, H * m + 2 * H
+    e = theta[ib:iv] @ h
+    e += theta[-1] - t
+    return e
+
+
+def _fill_jacobian_t(JT, theta, h, xT, H: int) -> None:
+    """J^T (P, n) of the outputs at ``theta``, written in place (its last row, dy/db2 = 1, is
+    set once): dy/dW1[j, i] = (1 - h_j^2) W2_j x_i, dy/db1[j] = (1 - h_j^2) W2_j, dy/dW2 = h."""
+    m, n = xT.shape
+    iw, ib, iv = H * m, H * m + H, H * m + 2 * H     # ends of W1, b1, W2 in theta
+    JW1 = JT[:iw].reshape(H, m, n)
+    Jb1, JW2 = JT[iw:ib], JT[ib:iv]
+    np.multiply(h, h, out=Jb1)
+    np.subtract(1.0, Jb1, out=Jb1)
+    Jb1 *= theta[ib:iv, None]
+    np.multiply(Jb1[:, None, :], xT[None, :, :], out=JW1)
+    JW2[:] = h
+
+
+def _lm_trial(theta, JtJ, Jte, diag, mu: float, loss: float, xT, t, H: int):
+    """The step ``-(J^T J + mu I)^-1 J^T e`` with the first mu, raised tenfold after each
+    failure, that lowers the MSE: (parameters, hidden outputs, errors, MSE, mu). When mu passes
+    ``LM_MU_MAX`` first, the returned mu says so (the rest is then meaningless)."""
+    n = xT.shape[1]
+    cand = h2 = e2 = loss2 = None
+    while True:
+        A = JtJ.copy()
+        A.flat[diag] += mu
+        # LAPACK's LU solve, as numpy.linalg.solve, without its per-call checks (a third
+        # of an epoch on a few hundred samples); info > 0: singular, raise mu
+        step, info = _dgesv(A, Jte, overwrite_a=1)[2:]
+        if info == 0:
+            cand = theta - step
+            h2 = _hidden_t(cand, xT, H)[0]
+            e2 = _lm_error(cand, h2, t, H, xT.shape[0])
+            loss2 = float(e2 @ e2) / n
+            if np.isfinite(loss2) and loss2 < loss:
+                return cand, h2, e2, loss2, mu
+        mu *= LM_MU_INC
+        if mu > LM_MU_MAX:
+            return cand, h2, e2, loss2, mu
 
 
 def _forward_chunked(theta, x, H, chunk=1 << 15):

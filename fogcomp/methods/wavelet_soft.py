@@ -40,7 +40,9 @@ import numpy as np
 import pywt
 
 from .._checks import _mode, _wavelet
-from ..base import Compensator, GyroData, register
+from .._data import GyroData
+from .._estimator import Compensator
+from .._registry import register
 
 __all__ = ["WaveletSoftThreshold", "SoftDenoiseResult", "soft_denoise", "mad_sigma",
            "sure_threshold", "THRESHOLDS"]

@@ -26,7 +26,9 @@ import pywt
 from scipy import signal
 
 from .._checks import _mode, _wavelet
-from ..base import Compensator, DivergenceError, GyroData, register
+from .._data import GyroData
+from .._estimator import Compensator, DivergenceError
+from .._registry import register
 from .._checks import _random_state
 
 __all__ = [
@@ -41,9 +43,6 @@ __all__ = [
 
 #: A loss this many times the initial loss counts as diverged (:class:`DivergenceError`).
 DIVERGENCE_FACTOR = 1e4
-
-_PAPER = ("Paper 000 (fogbench seed 000_6140556fe3a47984): error compensation of a fiber-optic "
-          "gyro by a wavelet neural network")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -219,8 +218,22 @@ def auto_level(x, wavelet="db6", mode="symmetric", psd_ratio=3.0):
     mode = _mode(mode)
     if not (isinstance(psd_ratio, numbers.Real) and math.isfinite(psd_ratio) and psd_ratio > 0):
         raise ValueError(f"psd_ratio: expected a positive finite number, got {psd_ratio!r}")
+    lmax = max_level(x.shape[0], w)
+    crit = _level_criteria(x, w, mode, lmax)
+    ok = crit <= psd_ratio
+    if not ok[0]:
+        warnings.warn(f"level: no level separates the trend by the PSD criterion (value "
+                      f"{crit[0]:.3g} > psd_ratio = {psd_ratio} already at M = 1); using M = 1",
+                      stacklevel=2)
+        return 1, crit
+    level = int(np.argmin(ok)) if not ok.all() else lmax
+    return level, crit
+
+
+def _level_criteria(x: np.ndarray, w, mode: str, lmax: int) -> np.ndarray:
+    """The criterion of :func:`auto_level` for M = 1 .. ``lmax``, shape (lmax,): steps 1-3 of
+    its description (periodograms, noise floor, the largest band median over the floor)."""
     n = x.shape[0]
-    lmax = max_level(n, w)
     f, px = signal.periodogram(x, fs=1.0, window="hann", detrend="constant")
     top = (f >= 0.25) & (f < 0.5)
     floor = float(np.median(px[top]))
@@ -236,14 +249,7 @@ def auto_level(x, wavelet="db6", mode="symmetric", psd_ratio=3.0):
         _, prs = signal.periodogram(rs, fs=1.0, window="hann", detrend="constant", axis=-1)
         for m, pr in zip(levels, prs):
             crit[m - 1] = _criterion(pr, bands, j_max, m, floor)
-    ok = crit <= psd_ratio
-    if not ok[0]:
-        warnings.warn(f"level: no level separates the trend by the PSD criterion (value "
-                      f"{crit[0]:.3g} > psd_ratio = {psd_ratio} already at M = 1); using M = 1",
-                      stacklevel=2)
-        return 1, crit
-    level = int(np.argmin(ok)) if not ok.all() else lmax
-    return level, crit
+    return crit
 
 
 # ---------------------------------------------------------------------------------------------
@@ -395,8 +401,8 @@ _CHUNK = 1024
 class _BatchLoss:
     """:func:`wnn_loss_and_grad` over the windows of one fitting record, for repeated calls.
 
-    The same loss and gradient, arranged for speed (issue 23; ``tests/fogcomp/methods/test_wnn.py`` compares
-    the training it drives with the former implementation):
+    The same loss and gradient, arranged for speed (``tests/fogcomp/methods/test_wnn.py`` compares the
+    training it drives with the former, plain implementation, kept there verbatim):
 
     * The Morlet's cos(w0 u) and sin(w0 u) come from one tangent of the half angle,
       ``tau = tan(w0 u / 2)``: ``cos = (1 - tau^2) / (1 + tau^2)``, ``sin = 2 tau / (1 + tau^2)``.
@@ -651,7 +657,7 @@ class WaveletNeuralNetwork(Compensator):
     eta1 and eta2 are multiplied by ``lr_inc`` when the loss fell from the previous iteration,
     by ``lr_dec`` when it rose (eqs. 13-14). There is no step rejection or stopping rule (the
     paper states none). A non-finite loss or one above ``DIVERGENCE_FACTOR`` times the initial
-    loss raises :class:`~fogcomp.base.DivergenceError`.
+    loss raises :class:`~fogcomp.DivergenceError`.
 
     *Initialisation* (the paper gives none): w_ij uniform in +-0.3/sqrt(k), b_j uniform in
     +-1, a_j = 3, w_j uniform in +-1/sqrt(l): with standardised inputs the hidden arguments

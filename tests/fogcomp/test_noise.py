@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 from scipy.signal import lfilter
 
-import fogcomp.noise as NZ
 from fogcomp.allan import allan_analysis, oadev_details
 from fogcomp.noise import (avar_covariance, avar_gm, avar_model, avar_term,
                            identify_noise_model, parse_model)
+from fogcomp.noise import _covariance as COV, _fit, _intervals
 
 FS = 10.0
 
@@ -71,7 +71,7 @@ def test_the_angle_covariance_gives_the_table_of_allan_variances(term):
         if term == "Q":
             e = 6.0                                  # the delta: G(0) = Q^2, else 0
         else:
-            g = [NZ._g_unit(term, None, np.array([float(x)]), tau0)[0] for x in (0, m, 2 * m)]
+            g = [COV._g_unit(term, None, np.array([float(x)]), tau0)[0] for x in (0, m, 2 * m)]
             e = 6 * g[0] - 8 * g[1] + 2 * g[2]
         tau = m * tau0
         assert e / (2 * tau**2) == pytest.approx(avar_term(term, [tau])[0], rel=1e-12)
@@ -80,7 +80,7 @@ def test_the_angle_covariance_gives_the_table_of_allan_variances(term):
 def test_gauss_markov_angle_covariance_gives_its_allan_variance():
     tau0, T = 1.0 / FS, 3.0
     for m in (1, 5, 200):
-        g = [NZ._g_unit("GM", T, np.array([float(x)]), tau0)[0] for x in (0, m, 2 * m)]
+        g = [COV._g_unit("GM", T, np.array([float(x)]), tau0)[0] for x in (0, m, 2 * m)]
         e = 6 * g[0] - 8 * g[1] + 2 * g[2]
         assert e / (2 * (m * tau0) ** 2) == pytest.approx(avar_gm([m * tau0], T, FS)[0],
                                                          rel=1e-10)
@@ -92,10 +92,10 @@ def test_the_quadrature_equals_the_term_by_term_sum(monkeypatch):
     n, procs = 400_000, [("N", None), ("K", None), ("B", None), ("GM", 30.0), ("GM", 0.7),
                          ("Q", None)]
     for mi, mj in [(512, 512), (700, 3000), (64, 2048), (1024, 4096)]:
-        monkeypatch.setattr(NZ, "_EXACT_MAX", 10**9)
-        s2e, s1e = NZ._pair_sums(procs, mi, mj, n, FS)
-        monkeypatch.setattr(NZ, "_EXACT_MAX", 16)
-        s2q, s1q = NZ._pair_sums(procs, mi, mj, n, FS)
+        monkeypatch.setattr(COV, "_EXACT_MAX", 10**9)
+        s2e, s1e = COV._pair_sums(procs, mi, mj, n, FS)
+        monkeypatch.setattr(COV, "_EXACT_MAX", 16)
+        s2q, s1q = COV._pair_sums(procs, mi, mj, n, FS)
         np.testing.assert_allclose(s2q, s2e, rtol=1e-2, atol=1e-12 * np.abs(s2e).max())
         np.testing.assert_allclose(s1q, s1e, rtol=1e-2, atol=1e-12 * np.abs(s1e).max())
 
@@ -194,10 +194,10 @@ def test_record_length_prediction_matches_longer_records():
     make = (lambda rng, nn: white(rng, nn, arw) + interval_mean_random_walk(rng, nn, rrw))
     m0 = allan_analysis(make(np.random.default_rng(1), n), FS, model="N + K",
                         record_length=False)[1]
-    pb = NZ._Problem(m0.taus, m0.avar, (m0.taus * FS).astype(int), (n,), FS, 0.001)
+    pb = _fit._Problem(m0.taus, m0.avar, (m0.taus * FS).astype(int), (n,), FS, 0.001)
     pb.set_weights(*m0.coefficients())
-    fit = NZ._Fit(NZ._Spec(("N", "K")), np.array([arw**2, rrw**2]), 0.0)
-    predicted = NZ._predicted_rel_sigma(pb, fit, 1, 4 * n)
+    fit = _fit._Fit(_fit._Spec(("N", "K")), np.array([arw**2, rrw**2]), 0.0)
+    predicted = _intervals._predicted_rel_sigma(pb, fit, 1, 4 * n)
     longer = [t.term("K").value for t in _records_stated(make, 4 * n, range(16), "N + K")]
     observed = np.std(longer, ddof=1) / rrw
     assert 1 / 1.6 < observed / predicted < 1.6, (observed, predicted)
@@ -251,17 +251,17 @@ def test_the_covariance_kernel_at_nine_shifts_at_once_is_the_double_loop_to_the_
             for b in range(3):
                 arg = h + a * mi - b * mj
                 if kind == "Q":
-                    out += NZ._C[a] * NZ._C[b] * (arg == 0)
+                    out += COV._C[a] * COV._C[b] * (arg == 0)
                 else:
-                    out += NZ._C[a] * NZ._C[b] * NZ._g_unit(kind, T, np.abs(arg), tau0)
+                    out += COV._C[a] * COV._C[b] * COV._g_unit(kind, T, np.abs(arg), tau0)
         return out
 
     tau0 = 1.0 / FS
-    nodes, _ = NZ._gl_nodes(NZ._geometric_pieces(-5000.5, 9000.5, "both"))
+    nodes, _ = COV._gl_nodes(COV._geometric_pieces(-5000.5, 9000.5, "both"))
     for h in (np.arange(-700.0, 3001.0), nodes):
         for kind, T in [("N", None), ("K", None), ("B", None), ("GM", 30.0), ("GM", 0.7),
                         ("Q", None)]:
             for mi, mj in [(1, 1), (700, 3000), (64, 2048)]:
-                fast = NZ._f_unit(kind, T, h, mi, mj, tau0)
+                fast = COV._f_unit(kind, T, h, mi, mj, tau0)
                 np.testing.assert_array_equal(fast, loop(kind, T, h, mi, mj, tau0))
                 assert np.any(fast != 0) or (kind == "Q" and h is nodes)  # Q: integer lags

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import fogcomp
-from fogcomp import base
+from fogcomp import _registry
 
 from helpers import SMALL_SCENARIO, run_cli
 
@@ -102,9 +102,9 @@ def entry_points_dir(tmp_path, monkeypatch):
         test_misnamed = plugin_methods:Raises
         """))
     monkeypatch.syspath_prepend(str(tmp_path / "site"))
-    monkeypatch.setattr(base, "_ENTRY_POINTS_READ", False)
-    monkeypatch.setattr(base, "_REGISTRY", dict(base._REGISTRY))
-    monkeypatch.setattr(base, "_PLUGIN_PROBLEMS", {})
+    monkeypatch.setattr(_registry, "_ENTRY_POINTS_READ", False)
+    monkeypatch.setattr(_registry, "_REGISTRY", dict(_registry._REGISTRY))
+    monkeypatch.setattr(_registry, "_PLUGIN_PROBLEMS", {})
     return tmp_path
 
 

@@ -297,7 +297,7 @@ def assert_compensate_refused(tmp_path, model, log, *words):
 
 def _reseal(path: Path, change) -> None:
     """Edit a model file and give it a valid checksum again (what a careful editor could do)."""
-    from fogcomp.base import _canonical_sha256
+    from fogcomp._persistence import _canonical_sha256
 
     doc = json.loads(path.read_text())
     change(doc)
@@ -821,7 +821,7 @@ def test_deeply_nested_inputs_are_one_line(tiny, tmp_path, killed):
 
 
 def test_a_triad_calibration_with_a_text_for_a_number_is_refused(tmp_path):
-    from fogcomp.base import _canonical_sha256
+    from fogcomp._persistence import _canonical_sha256
 
     good = _ferraris_csv(tmp_path / "good.csv")
     assert run_cli("calibrate", "ferraris", good, *FERRARIS_ARGS, "--out", tmp_path / "c")[0] == 0

@@ -20,7 +20,7 @@ import scipy.signal
 from rerun.chunk import RrdReader
 
 import fogcomp
-from fogcomp.base import Compensator, register
+from fogcomp import Compensator, register
 from fogcomp.units import DPH, DPS
 from fogbench import recording as R
 from fogbench.recording import blueprint as recording_blueprint

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fogcomp.base import Compensator, DivergenceError, register
+from fogcomp import Compensator, DivergenceError, register
 from fogbench.scenario.load import RUNNER_SECTIONS
 from fogbench.scenario import ScenarioError, load_plan, load_scenario
 from fogbench.run.suite import run_suite

@@ -13,7 +13,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import fogcomp
-from fogcomp.base import DivergenceError, GyroData
+from fogcomp import DivergenceError, GyroData
 from fogcomp.methods.flnn import (
     IdentifiabilityWarning,
     _lms_pass,

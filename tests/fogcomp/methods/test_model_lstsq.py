@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import fogcomp
-from fogcomp.base import GyroData
+from fogcomp import GyroData
 from fogcomp.methods.flnn import IdentifiabilityWarning
 from fogcomp.units import DPH, PPM
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import fogcomp
-from fogcomp.base import DivergenceError, GyroData
+from fogcomp import DivergenceError, GyroData
 from fogcomp.methods.flnn import IdentifiabilityWarning
 from fogcomp.methods.temperature import (
     ConvergenceWarning,

@@ -127,15 +127,20 @@ def _as_float_array(name: str, value: Any, ndim: int) -> np.ndarray:
 
 
 def _refused_kind(raw: np.ndarray) -> str:
-    """'boolean' or 'complex' when ``raw`` holds such values (which a float cast would hide)."""
+    """'boolean', 'complex' or 'text' when ``raw`` holds such values (which a float cast would
+    hide: ``np.asarray(["0.1"], dtype=float)`` reads text as numbers without a word)."""
     if raw.dtype.kind == "b":
         return "boolean"
     if raw.dtype.kind == "c":
         return "complex"
+    if raw.dtype.kind in "USV":
+        return "text"
     if raw.dtype.kind == "O":
         for x in raw.flat:
             if isinstance(x, (bool, np.bool_)):
                 return "boolean"
             if isinstance(x, (complex, np.complexfloating)):
                 return "complex"
+            if isinstance(x, (str, bytes)):
+                return "text"
     return ""

@@ -1,12 +1,14 @@
-"""A time limit on a method's code (its fit, its compensation, a conformance rule)."""
+"""Limits on a method's code (its fit, its compensation, a conformance rule): a time limit,
+and no way out of the process (``os._exit``) while it runs."""
 
 from __future__ import annotations
 
 import contextlib
+import os
 import signal
 import threading
 
-__all__ = ["MethodTimeout", "time_limit"]
+__all__ = ["MethodTimeout", "MethodExit", "time_limit", "no_exit"]
 
 
 class MethodTimeout(BaseException):
@@ -37,3 +39,27 @@ def time_limit(seconds: float | None, what: str, verb: str = "return", note: str
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0.0)
         signal.signal(signal.SIGALRM, old)
+
+
+class MethodExit(BaseException):
+    """A method's code called ``os._exit`` (which would end the process, and the run, with no
+    word). A BaseException, so that a method's own ``except Exception`` cannot swallow it."""
+
+
+@contextlib.contextmanager
+def no_exit(what: str):
+    """While the code inside runs, ``os._exit`` raises :class:`MethodExit` naming ``what``
+    instead of ending the process: a method's fit that calls it fails, the run goes on. A
+    process the code started (a fork, a multiprocessing worker) keeps the real ``os._exit``."""
+    real, pid = os._exit, os.getpid()
+
+    def exit_(code):
+        if os.getpid() != pid:
+            real(code)
+        raise MethodExit(f"{what} called os._exit({code}), which would have ended the process")
+
+    os._exit = exit_
+    try:
+        yield
+    finally:
+        os._exit = real

@@ -9,6 +9,8 @@ module (never a file path). :func:`get_method` finds a class, :func:`make_method
 
 from __future__ import annotations
 
+import warnings
+
 import re
 
 __all__ = [
@@ -27,6 +29,11 @@ ENTRY_POINT_GROUP = "fogcomp.methods"
 
 _REGISTRY: dict[str, type] = {}
 _PLUGIN_PROBLEMS: dict[str, str] = {}     # entry-point name -> why it could not be loaded
+_SHADOW_SAID: set[str] = set()            # built-in names whose shadowing plug-in was named
+
+
+class PluginShadowWarning(UserWarning):
+    """An installed entry point has the name of a built-in method: the built-in runs."""
 _ENTRY_POINTS_READ = False
 _CLASS_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*:"
                          r"[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*$")
@@ -163,6 +170,11 @@ def get_method(name: str) -> type:
     """
     names = available_methods()
     if name in _REGISTRY:
+        if name in _PLUGIN_PROBLEMS and name not in _SHADOW_SAID:   # an entry point took the name
+            _SHADOW_SAID.add(name)
+            warnings.warn(f"{_PLUGIN_PROBLEMS[name]}: the built-in {name!r} runs; name the "
+                          "plug-in by its module:Class to run it instead", PluginShadowWarning,
+                          stacklevel=2)
         return _REGISTRY[name]
     if name in _PLUGIN_PROBLEMS:
         raise PluginError(_PLUGIN_PROBLEMS[name])

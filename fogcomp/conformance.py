@@ -28,10 +28,13 @@ temperature, its rate and the attitude, plus white noise, at 100 Hz.
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import inspect
 import math
+import signal
 import tempfile
+import threading
 import time
 import warnings
 from dataclasses import dataclass, field
@@ -41,7 +44,7 @@ import numpy as np
 
 from ._data import GyroData
 from ._estimator import NotFittedError
-from ._limits import MethodTimeout, time_limit
+from ._limits import MethodExit, MethodTimeout, no_exit, time_limit
 from ._persistence import load_model
 from ._registry import class_problem, get_method
 
@@ -54,10 +57,18 @@ RULES = ("init_stores_only", "get_params_round_trip", "check_params_refuses_wron
 
 @dataclass
 class RuleResult:
+    """One rule's result: whether it holds, what failed, and (the probe) how long it took."""
+
     rule: str
     ok: bool
     message: str = ""
     seconds: float | None = None
+
+    def line(self) -> str:
+        """``ok   rule`` or ``FAIL rule: what failed``, as the report prints it."""
+        t = f" ({self.seconds:.3g} s)" if self.seconds is not None else ""
+        return f"{'ok  ' if self.ok else 'FAIL'} {self.rule}{t}" + (
+            f": {self.message}" if self.message else "")
 
 
 @dataclass
@@ -78,10 +89,7 @@ class MethodCheck:
     def __str__(self) -> str:
         lines = [f"check_method {self.method}: " + ("every rule holds" if self.ok else
                                                    f"{len(self.failures)} rule(s) fail")]
-        for r in self.results:
-            t = f" ({r.seconds:.3g} s)" if r.seconds is not None else ""
-            lines.append(f"  {'ok  ' if r.ok else 'FAIL'} {r.rule}{t}"
-                         + (f": {r.message}" if r.message else ""))
+        lines += [f"  {r.line()}" for r in self.results]
         return "\n".join(lines)
 
 
@@ -136,7 +144,8 @@ def _fit(cls, params, data, ref, seed=0):
 
 
 def check_method(method, params: dict | None = None, *, samples: int = 2000,
-                 probe_samples: int = 100_000, timeout_s: float | None = 300.0) -> MethodCheck:
+                 probe_samples: int = 100_000, timeout_s: float | None = 300.0,
+                 progress=None) -> MethodCheck:
     """Run every rule of the contract (module docstring) on ``method``.
 
     Parameters
@@ -150,14 +159,22 @@ def check_method(method, params: dict | None = None, *, samples: int = 2000,
     probe_samples : int
         Length of the probe record (``probe_1e5``; 10^5 by default; its result names it).
     timeout_s : float or None
-        Longest a rule may take, s (a hanging method fails the rule it hangs in); None: no
-        limit.
+        Longest a rule may take, s (a hanging method fails the rule it hangs in, and the rules
+        after it are not run: the whole check takes at most about this long once a rule
+        hangs); None: no limit.
+    progress : callable, optional
+        Called with each :class:`RuleResult` as its rule ends (the command prints it).
 
     Returns
     -------
     MethodCheck
         Per rule: holds or not, and what failed. Never raises for a method's failure: an
-        exception inside a rule is that rule's failure.
+        exception inside a rule is that rule's failure, and so is a call of ``os._exit``.
+
+    Notes
+    -----
+    Every rule gets records of its own (the same seeded values, fresh arrays), so a method that
+    changes its input in place is caught by ``inputs_not_modified`` whichever rule ran first.
     """
     cls = get_method(method) if isinstance(method, str) else method
     name = method if isinstance(method, str) else f"{cls.__module__}:{cls.__qualname__}"
@@ -167,24 +184,68 @@ def check_method(method, params: dict | None = None, *, samples: int = 2000,
         report.results = [RuleResult(r, False, f"not checked: {problem}") for r in RULES]
         return report
     params = dict(params or {})
-    data, ref = _record(samples)
     saved = np.random.get_state()     # a method that draws from it is put right afterwards
+    hung = None
     try:
         for rule in RULES:
-            t0 = time.perf_counter()
-            try:
-                with time_limit(timeout_s, rule, verb="finish"):
-                    msg = _RULES[rule](cls, params, data, ref, probe_samples)
-            except (Exception, SystemExit, MethodTimeout) as exc:  # noqa: BLE001
-                msg = f"raised {type(exc).__name__}: {exc}"     # a rule's crash is its failure
-            seconds = time.perf_counter() - t0 if rule == "probe_1e5" else None
-            ok = msg is None
-            if rule == "probe_1e5" and ok:
-                msg = f"{probe_samples} samples fitted and compensated"
-            report.results.append(RuleResult(rule, ok, msg or "", seconds))
+            if hung is not None:
+                result = RuleResult(rule, False, f"not checked: {hung}")
+            else:
+                result = _run_rule(rule, cls, params, samples, probe_samples, timeout_s)
+                if result.message.startswith("raised MethodTimeout"):
+                    hung = f"rule {rule} did not finish within {timeout_s:g} s"
+            report.results.append(result)
+            if progress is not None:
+                progress(result)
     finally:
         np.random.set_state(saved)
     return report
+
+
+@contextlib.contextmanager
+def _sigint_seen():
+    """A list that holds True once a real SIGINT (Ctrl-C) arrived inside the block, the
+    handler that was there still run; a method raising KeyboardInterrupt itself leaves it
+    empty. Only in the main thread (elsewhere no signal arrives)."""
+    seen: list = []
+    if threading.current_thread() is not threading.main_thread():
+        yield seen
+        return
+    before = signal.getsignal(signal.SIGINT)
+
+    def handler(signum, frame):
+        seen.append(True)
+        if callable(before):
+            before(signum, frame)
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGINT, handler)
+    try:
+        yield seen
+    finally:
+        signal.signal(signal.SIGINT, before)
+
+
+def _run_rule(rule: str, cls, params: dict, samples: int, probe_samples: int,
+              timeout_s) -> RuleResult:
+    """One rule on records of its own, within the time limit, ``os._exit`` a failure."""
+    data, ref = _record(samples)
+    t0 = time.perf_counter()
+    with _sigint_seen() as seen:
+        try:
+            with time_limit(timeout_s, rule, verb="finish"), no_exit(f"rule {rule}"):
+                msg = _RULES[rule](cls, params, data, ref, probe_samples)
+        except KeyboardInterrupt as exc:
+            if seen:                 # Ctrl-C: the user stops the check
+                raise
+            msg = f"raised KeyboardInterrupt (not a Ctrl-C: the method's own): {exc}"
+        except (Exception, SystemExit, MethodTimeout, MethodExit) as exc:  # noqa: BLE001
+            msg = f"raised {type(exc).__name__}: {exc}"     # a rule's crash is its failure
+    seconds = time.perf_counter() - t0 if rule == "probe_1e5" else None
+    ok = msg is None
+    if rule == "probe_1e5" and ok:
+        msg = f"{probe_samples} samples fitted and compensated"
+    return RuleResult(rule, ok, msg or "", seconds)
 
 
 # ---------------------------------------------------------------------------------------------

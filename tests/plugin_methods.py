@@ -90,3 +90,34 @@ class WrongOutput(MeanBias):
 
     def compensate(self, data):
         return np.zeros((len(data), 1))
+
+
+class MutatesInput(MeanBias):
+    """Centres the caller's rate array in place (a bug the contract catches)."""
+
+    name = "test_mutates_input"
+
+    def _fit(self, data, error):
+        r = data.rate
+        r[:] -= np.median(r)
+        super()._fit(data, error)
+
+
+class HardExits(MeanBias):
+    """Ends the process with os._exit(0) in its fit."""
+
+    name = "test_hard_exits"
+
+    def _fit(self, data, error):
+        import os
+
+        os._exit(0)
+
+
+class RaisesInterrupt(MeanBias):
+    """Raises KeyboardInterrupt itself (no Ctrl-C was pressed)."""
+
+    name = "test_raises_interrupt"
+
+    def _fit(self, data, error):
+        raise KeyboardInterrupt("planted in fit")

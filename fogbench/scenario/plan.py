@@ -95,6 +95,16 @@ class Plan:
 _WARNED: set = set()
 
 
+def _warn_once(file, text: str) -> None:
+    """One ``fogbench: warning:`` line, once per process (load_plan runs per replicate)."""
+    import sys
+
+    if (str(file), text) in _WARNED:
+        return
+    _WARNED.add((str(file), text))
+    print(f"fogbench: warning: {file}: {text}", file=sys.stderr)
+
+
 def _plugin_warning(file, label: str, why: str) -> None:
     import sys
 
@@ -182,11 +192,19 @@ def _method_specs(t: _Table, file: str) -> list[MethodSpec]:
     that cannot run kept with ``failed`` set (the run reports it and goes on)."""
     from fogcomp import PluginError, get_method, make_method
 
+    import warnings
+
+    from fogcomp._registry import PluginShadowWarning
+
     mname = t.get("name", "str")
     params = dict(t.get("params", "table", {}))
     label = t.get("label", "name", mname.rpartition(":")[2] if ":" in mname else mname)
     try:
-        cls = get_method(mname)
+        with warnings.catch_warnings(record=True) as said:
+            warnings.simplefilter("always", PluginShadowWarning)
+            cls = get_method(mname)
+        for w in said:     # an installed plug-in has this built-in's name: say which runs
+            _warn_once(file, str(w.message))
     except PluginError as exc:      # installed but unusable: reported as failed, run goes on
         msg = name_problem(label)
         if msg:

@@ -4,6 +4,8 @@ a message saying what was wrong."""
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 import pytest
 
@@ -61,3 +63,38 @@ def test_a_method_that_exits_or_hangs_fails_the_rule_and_the_check_goes_on():
     rep = fogcomp.check_method(Hangs, probe_samples=1000, timeout_s=0.5)
     msg = next(r.message for r in rep.failures if r.rule == "fit_returns_self")
     assert "did not finish within 0.5 s" in msg
+
+
+def test_an_in_place_change_of_the_input_fails_its_rule_whatever_ran_before():
+    """Every rule gets records of its own: a fit that centres the caller's rate in place
+    cannot hide behind an earlier rule that changed the shared record first."""
+    from plugin_methods import MutatesInput
+
+    rep = fogcomp.check_method(MutatesInput, probe_samples=1000)
+    failed = {r.rule: r.message for r in rep.failures}
+    assert "inputs_not_modified" in failed, str(rep)
+    assert "modified the input array 'rate' in place" in failed["inputs_not_modified"]
+
+
+def test_os_exit_and_a_methods_own_keyboard_interrupt_fail_rules_not_the_process():
+    from plugin_methods import HardExits, RaisesInterrupt
+
+    rep = fogcomp.check_method(HardExits, probe_samples=1000)
+    msg = {r.rule: r.message for r in rep.failures}["fit_returns_self"]
+    assert "MethodExit" in msg and "os._exit(0)" in msg
+    rep = fogcomp.check_method(RaisesInterrupt, probe_samples=1000)
+    msg = {r.rule: r.message for r in rep.failures}["fit_returns_self"]
+    assert "KeyboardInterrupt (not a Ctrl-C" in msg
+
+
+def test_a_hanging_method_costs_one_timeout_and_every_rule_is_said_as_it_ends():
+    t0 = time.monotonic()
+    code, out, err = run_cli("check-method", "plugin_methods:Hangs", "--rule-timeout-s", "0.5",
+                             "--probe-samples", "1000")
+    assert code == 1 and time.monotonic() - t0 < 30
+    assert "did not finish within 0.5 s" in out
+    assert "not checked: rule fit_returns_self did not finish within 0.5 s" in out
+    progress = [ln for ln in err.splitlines() if ln.lstrip().startswith("[")]
+    assert len(progress) == len(RULES) and progress[0].lstrip().startswith("[1/10] ok")
+    code, out, _ = run_cli("check-method", "plugin_methods:HardExits", "--quiet")
+    assert code == 1 and "os._exit(0)" in out

@@ -360,8 +360,11 @@ def test_a_boolean_sample_rate_is_refused(fs):
     ("complex", lambda shape: np.ones(shape) + 0j),
     ("boolean", lambda shape: np.ones(shape, dtype=bool).tolist()),
     ("complex", lambda shape: np.full(shape, 1 + 2j, dtype=object)),
+    ("text", lambda shape: np.full(shape, "0.1")),                  # "0.1" read as 0.1 before
+    ("text", lambda shape: np.full(shape, "0.1", dtype=object)),
+    ("text", lambda shape: np.full(shape, b"0.1")),
 ])
-def test_boolean_or_complex_arrays_are_refused_with_the_argument_name(field, kind, make):
+def test_boolean_complex_or_text_arrays_are_refused_with_the_argument_name(field, kind, make):
     n = 5
     kw = {"rate": np.zeros(n), "fs": FS}
     kw[field] = make((n, 3) if field == "g" else (n,))

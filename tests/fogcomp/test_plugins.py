@@ -100,11 +100,13 @@ def entry_points_dir(tmp_path, monkeypatch):
         test_mean_bias = plugin_methods:MeanBias
         test_broken = plugin_broken:Broken
         test_misnamed = plugin_methods:Raises
+        kalman = plugin_methods:MeanBias
         """))
     monkeypatch.syspath_prepend(str(tmp_path / "site"))
     monkeypatch.setattr(_registry, "_ENTRY_POINTS_READ", False)
     monkeypatch.setattr(_registry, "_REGISTRY", dict(_registry._REGISTRY))
     monkeypatch.setattr(_registry, "_PLUGIN_PROBLEMS", {})
+    monkeypatch.setattr(_registry, "_SHADOW_SAID", set())
     return tmp_path
 
 
@@ -153,3 +155,21 @@ def test_with_method_reaches_worker_processes_and_later_runs_do_not_inherit_it(t
     assert code == 0, err
     mc = json.loads((tmp_path / "b" / "metrics.json").read_text())["montecarlo"]
     assert "MeanBias" not in json.dumps(mc)
+
+
+def test_a_plug_in_named_as_a_built_in_is_named_and_the_built_in_runs(entry_points_dir,
+                                                                      tmp_path):
+    """An installed entry point ``kalman`` is not dropped without a word: asking for
+    ``kalman`` warns, naming the entry point and how to run it, and gets the built-in; a
+    scenario naming it says so on stderr as a fogbench warning."""
+    with pytest.warns(_registry.PluginShadowWarning,
+                      match=r"entry point 'kalman' \(plugin_methods:MeanBias\) has the name of "
+                            r"a built-in.*module:Class"):
+        cls = fogcomp.get_method("kalman")
+    assert cls.__module__.startswith("fogcomp.")
+    _registry._SHADOW_SAID.clear()
+    s = _scenario(tmp_path, [])
+    s.write_text(s.read_text() + '\n[[methods]]\nname = "kalman"\n')
+    code, _, err = run_cli("check", s)
+    assert code == 0
+    assert "fogbench: warning:" in err and "entry point 'kalman'" in err

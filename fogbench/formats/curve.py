@@ -21,6 +21,9 @@ def read_curve(path, ci: float | None = None, with_header: bool = False):
     ``axis`` column. Returns ``{axis: (taus s, adev rad/s, low rad/s or None, high or None)}``
     and the unit suffix (and, with ``with_header``, the ``key=value`` fields of its comment
     lines)."""
+    if ci is not None and not (0 < ci < 1):
+        raise LogError(f"--curve-ci: expected the probability content of the curve's interval "
+                       f"columns, between 0 and 1 (e.g. 0.95), got {ci:g}")
     if with_header:
         header = comment_fields(path)
         curves, unit = read_curve(path, ci)

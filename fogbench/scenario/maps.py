@@ -71,6 +71,17 @@ def map_file_scenario(path) -> Path | None:
     if not target.is_file():
         raise ScenarioError(f"{path}: key 'scenario': {v!r} ({target}) is not a file; a map "
                             "file names its scenario relative to itself")
+    if target.resolve() == Path(path).resolve():
+        raise ScenarioError(f"{path}: key 'scenario': {v!r} is this map file itself; a map file "
+                            "names a scenario file (with [scenario], [fog], [[runs]], ...)")
+    try:
+        named = _read_toml(target)
+    except ScenarioError:
+        return target                      # load_scenario names the problem
+    if isinstance(named.get("scenario"), str):
+        raise ScenarioError(f"{path}: key 'scenario': {v!r} ({target}) is a map file too (its "
+                            "own 'scenario' names another file); a map file names a scenario "
+                            "file, not another map")
     return target
 
 

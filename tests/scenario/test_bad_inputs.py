@@ -90,3 +90,26 @@ def test_a_lab_believing_a_latitude_beyond_the_pole_is_refused(tmp_path):
     assert "[lab] key 'latitude_error_deg': the lab would believe a latitude of 94 deg" in err
     ok = _write(tmp_path, lat=89.0, lab='[lab]\nlatitude_error_deg = -5.0\n')
     assert run_cli("check", ok)[0] == 0
+
+
+def test_a_map_file_naming_itself_or_another_map_is_refused_naming_why(tmp_path):
+    (tmp_path / "self.toml").write_text('scenario = "self.toml"\n[map]\n')
+    (tmp_path / "a.toml").write_text('scenario = "b.toml"\n[map]\n')
+    (tmp_path / "b.toml").write_text('scenario = "s.toml"\n[map]\n')
+    _write(tmp_path)
+    code, _, err = run_cli("check", tmp_path / "self.toml")
+    assert code == 2 and "is this map file itself" in err
+    code, _, err = run_cli("check", tmp_path / "a.toml")
+    assert code == 2 and "is a map file too" in err
+
+
+@pytest.mark.parametrize("ci", ["2", "-1", "0", "1"])
+def test_a_curve_interval_probability_outside_0_1_is_refused(tmp_path, ci):
+    curve = tmp_path / "c.csv"
+    curve.write_text("tau_s,adev_dph,adev_ci_low_dph,adev_ci_high_dph\n1,1,0.9,1.1\n"
+                     "2,0.8,0.7,0.9\n4,0.6,0.5,0.7\n")
+    code, _, err = run_cli("allan", "--curve", curve, "--curve-ci", ci, "--fs", "10",
+                           "--samples", "1000")
+    assert code == 2
+    assert err.strip().splitlines()[-1].startswith(
+        "fogbench: error: --curve-ci: expected the probability content")

@@ -23,7 +23,6 @@ from pathlib import Path
 
 import numpy as np
 
-from fogbench.outputs.files import atomic_write_text
 from fogbench.run import stats as S
 
 __all__ = ["FORMAT", "collect", "compare_markdown", "write_compare", "compare"]
@@ -40,6 +39,11 @@ class CompareError(ValueError):
 
 
 def _run_dirs(paths) -> list[Path]:
+    """The run directories ``paths`` name (a suite folder: every run directory in it), each
+    once: the same folder given twice, or a copy of a run under another name (the same
+    ``metrics.json``), is refused naming both."""
+    import hashlib
+
     dirs = []
     for p in map(Path, paths):
         if (p / "metrics.json").is_file():
@@ -52,7 +56,86 @@ def _run_dirs(paths) -> list[Path]:
             dirs += found
         else:
             raise CompareError(f"{p}: no such run directory")
+    seen: dict = {}
+    for d in dirs:
+        try:
+            digest = hashlib.sha256((d / "metrics.json").read_bytes()).hexdigest()
+        except OSError as exc:
+            raise CompareError(f"{d / 'metrics.json'}: cannot be read ({exc.strerror})") from None
+        for key in (("path", d.resolve()), ("content", digest)):
+            if key in seen:
+                how = "given twice" if key[0] == "path" else "the same run as"
+                raise CompareError(f"{d}: {how} {seen[key]}" if key[0] == "content" else
+                                   f"{d}: {how} (also as {seen[key]}); each run is compared once")
+            seen[key] = d
     return dirs
+
+
+def _check_series(series, path: Path) -> None:
+    """``montecarlo.series``: protocol -> metric -> method -> a list of numbers (None where a
+    replicate failed), the same count for every method of a metric (a ragged series is named:
+    its rows would compare unequal numbers of replicates)."""
+    where = f"{path}: key 'montecarlo.series'"
+    if not isinstance(series, dict):
+        raise CompareError(f"{where}: expected a table (protocol -> metric -> method -> "
+                           f"values), got {type(series).__name__}")
+    for prot, by_metric in series.items():
+        if not isinstance(by_metric, dict):
+            raise CompareError(f"{where}[{prot!r}]: expected a table, got "
+                               f"{type(by_metric).__name__}")
+        for metric, by_label in by_metric.items():
+            if not isinstance(by_label, dict):
+                raise CompareError(f"{where}[{prot!r}][{metric!r}]: expected a table, got "
+                                   f"{type(by_label).__name__}")
+            counts = {}
+            for label, vals in by_label.items():
+                if not isinstance(vals, list) or not all(
+                        v is None or (isinstance(v, (int, float)) and not isinstance(v, bool))
+                        for v in vals):
+                    raise CompareError(f"{where}[{prot!r}][{metric!r}][{label!r}]: expected a "
+                                       "list of numbers (null for a failed replicate), got "
+                                       f"{str(vals)[:60]}")
+                counts[label] = len(vals)
+            if len(set(counts.values())) > 1:
+                raise CompareError(f"{where}[{prot!r}][{metric!r}]: ragged: its methods have "
+                                   f"different numbers of replicates ({counts}); the file was "
+                                   "edited or is damaged")
+
+
+def _read_metrics(d: Path) -> dict:
+    """A run directory's ``metrics.json``, its shape checked where compare reads it: every
+    error names the file and the key."""
+    path = d / "metrics.json"
+    try:
+        doc = json.loads(path.read_text())
+    except (OSError, ValueError, RecursionError) as exc:
+        raise CompareError(f"{path}: cannot be read ({exc})") from None
+    if not isinstance(doc, dict):
+        raise CompareError(f"{path}: expected a JSON object (a run directory's metrics), got "
+                           f"{type(doc).__name__}")
+    prots = doc.get("protocols")
+    if not isinstance(prots, dict) or not all(isinstance(v, dict) for v in prots.values()):
+        raise CompareError(f"{path}: key 'protocols': expected a table of protocol tables; "
+                           "compare reads run directories of fogbench run or suite")
+    for key in ("scenario",):
+        if key in doc and not isinstance(doc[key], str):
+            raise CompareError(f"{path}: key {key!r}: expected a string, got {doc[key]!r}")
+    if "methods" in doc and not isinstance(doc["methods"], dict):
+        raise CompareError(f"{path}: key 'methods': expected a table, got "
+                           f"{type(doc['methods']).__name__}")
+    mc = doc.get("montecarlo")
+    if mc is not None:
+        if not isinstance(mc, dict):
+            raise CompareError(f"{path}: key 'montecarlo': expected a table, got "
+                               f"{type(mc).__name__}")
+        if "series" in mc:
+            _check_series(mc["series"], path)
+        claims = mc.get("claims")
+        if claims is not None and not (isinstance(claims, list) and all(
+                isinstance(c, dict) and isinstance(c.get("metric"), str) for c in claims)):
+            raise CompareError(f"{path}: key 'montecarlo.claims': expected a list of claims, "
+                               "each with its 'metric'")
+    return doc
 
 
 def _values(seq) -> np.ndarray:
@@ -94,10 +177,7 @@ def collect(paths) -> list[dict]:
     """One row per (scenario, protocol, method) of the run directories ``paths``."""
     rows = []
     for d in _run_dirs(paths):
-        try:
-            doc = json.loads((d / "metrics.json").read_text())
-        except (OSError, ValueError) as exc:
-            raise CompareError(f"{d / 'metrics.json'}: cannot be read ({exc})") from None
+        doc = _read_metrics(d)
         mc = doc.get("montecarlo")
         if not isinstance(mc, dict) or "series" not in mc:
             mc = {"series": _one_replicate(doc, d)}
@@ -329,8 +409,10 @@ def _ours(folder: Path) -> bool:
 
 
 def write_compare(paths, out: Path) -> Path:
-    """Write ``out/compare.md``, ``compare.json`` and ``compare.png``; replaces only files this
-    command wrote. Returns the Markdown's path."""
+    """Write ``out/compare.md``, ``compare.json`` and ``compare.png``, all three or none;
+    replaces only files this command wrote. Returns the Markdown's path."""
+    from fogbench.outputs.folders import Outputs
+
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise CompareError(f"--out {out}: not a folder")
@@ -341,13 +423,18 @@ def write_compare(paths, out: Path) -> Path:
     if not rows:
         raise CompareError("compare: no method with replicates on its scenario's headline "
                            "metric in " + ", ".join(map(str, paths)))
-    out.mkdir(parents=True, exist_ok=True)
-    _figure(rows, str(out / "compare.png"))
-    atomic_write_text(out / "compare.json", json.dumps(
-        {"format": FORMAT, "version": 1, "rows": rows}, indent=1, allow_nan=False))
-    md = out / "compare.md"
-    atomic_write_text(md, compare_markdown(rows))
-    return md
+    files_ = Outputs(True, "compare")
+    names = {n: files_.target(out / n, recognise=lambda p: _ours(p.parent))
+             for n in ("compare.png", "compare.json", "compare.md")}
+    try:
+        files_.write(names["compare.png"], lambda tmp: _figure(rows, tmp))
+        files_.write_text(names["compare.json"], json.dumps(
+            {"format": FORMAT, "version": 1, "rows": rows}, indent=1, allow_nan=False))
+        files_.write_text(names["compare.md"], compare_markdown(rows))
+        files_.commit()
+    finally:
+        files_.discard()
+    return names["compare.md"]
 
 
 def compare(dirs: list[str], out: str | Path | None = None) -> int:

@@ -125,3 +125,56 @@ def test_each_protocol_s_first_row_names_its_metric_in_the_figure(tmp_path, monk
     labels = [t.get_text() for t in kept[0].axes[0].get_yticklabels()]
     assert labels == ["a / p [rmse]: k", "w", "b / p [std_dps]: k", "w"]
     assert "metric in [ ]" in kept[0].axes[0].get_xlabel()
+
+
+def _listing(d):
+    return sorted(str(q.relative_to(d)) for q in d.rglob("*"))
+
+
+@pytest.mark.parametrize("edit, words", [
+    (lambda doc: [doc], "expected a JSON object"),
+    (lambda doc: {**doc, "montecarlo": {"series": [1, 2]}}, "key 'montecarlo.series': expected a"),
+    (lambda doc: {**doc, "protocols": {"p": 3}}, "key 'protocols': expected a table"),
+    (lambda doc: {**doc, "montecarlo": {"series": {"p": {"improvement_rmse_pct": {
+        "raw": [0, 0], "a": [1.0, "abc"]}}}}}, "['a']: expected a list of numbers"),
+    (lambda doc: {**doc, "montecarlo": {"series": {"p": {"improvement_rmse_pct": {
+        "raw": [0, 0, 0], "a": [1.0]}}}}}, "ragged"),
+])
+def test_a_damaged_metrics_json_is_refused_naming_the_file_and_key(tmp_path, edit, words):
+    d = _run_dir(tmp_path / "rep", "s1", {"improvement_rmse_pct": {
+        "raw": [0, 0], "a": [10.0, 12.0]}})
+    doc = json.loads((d / "metrics.json").read_text())
+    (d / "metrics.json").write_text(json.dumps(edit(doc)))
+    before = _listing(tmp_path)
+    code, _, err = run_cli("compare", d, "--out", tmp_path / "cmp")
+    assert code == 2, err
+    line = err.strip().splitlines()[-1]
+    assert line.startswith(f"fogbench: error: {d / 'metrics.json'}") and words in line, line
+    assert _listing(tmp_path) == before            # no traceback, nothing written
+
+
+def test_the_same_run_twice_or_a_copy_of_it_is_refused(tmp_path):
+    d = _run_dir(tmp_path / "rep", "s1", {"improvement_rmse_pct": {
+        "raw": [0, 0], "a": [10.0, 12.0]}})
+    code, _, err = run_cli("compare", d, d, "--out", tmp_path / "cmp")
+    assert code == 2 and "given twice" in err
+    import shutil
+
+    shutil.copytree(d, tmp_path / "rep" / "copy")
+    code, _, err = run_cli("compare", d, tmp_path / "rep" / "copy", "--out", tmp_path / "cmp")
+    assert code == 2 and "the same run as" in err
+    assert not (tmp_path / "cmp").exists()
+
+
+def test_a_failed_write_leaves_no_output_folder(tmp_path, monkeypatch):
+    _run_dir(tmp_path / "rep", "s1", {"improvement_rmse_pct": {
+        "raw": [0, 0], "a": [10.0, 12.0]}})
+    from fogbench.report import compare as C
+
+    def no_space(rows, path):
+        raise OSError(28, "No space left on device", path)
+
+    monkeypatch.setattr(C, "_figure", no_space)
+    code, _, err = run_cli("compare", tmp_path / "rep" / "s1", "--out", tmp_path / "new" / "cmp")
+    assert code == 1 and "No space left on device" in err
+    assert not (tmp_path / "new").exists()

@@ -80,8 +80,12 @@ def _worker_init(parent_pid: int) -> None:
     started the pool has gone, even by kill -9 (no ``finally`` of the parent runs then, and an
     idle worker would wait on its queue for ever, a busy one finish its replicate)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    # SIGTERM is how the parent stops a worker: it ends at once, printing nothing (a handler
+    # inherited from the command line's would raise Terminated in the worker's loop, whose
+    # traceback multiprocessing prints); a worker writes nothing, its parent writes each result
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
     # the pool was started with SIGINT and SIGTERM blocked (make_executor): SIGTERM must reach
-    # a worker again, it is how the parent stops one
+    # a worker again
     signal.pthread_sigmask(signal.SIG_UNBLOCK, (signal.SIGINT, signal.SIGTERM))
 
     def watch():

@@ -284,12 +284,16 @@ def _part_dirs(root: Path) -> list[Path]:
     return [p for p in root.rglob(".*") if p.name.endswith((".part", ".old"))]
 
 
-def _signal_suite(cwd, sig, ready, *, wait_s, after_s, timeout_s, hung):
+def _signal_suite(cwd, sig, ready, *, wait_s, after_s, timeout_s, hung, script=False):
     """Start ``fogbench suite`` on ``cwd/scn`` with two workers, wait until ``ready(stderr so
     far)`` (at most ``wait_s``), then ``after_s`` more, and signal it: SIGINT to the whole
     process group (as Ctrl-C does), SIGTERM to the main process. Returns (exit status, stderr
-    before the signal, stderr after); fails the test if it does not end within ``timeout_s``."""
-    proc = subprocess.Popen([sys.executable, "-m", "fogbench", "suite", "--scenarios", "scn",
+    before the signal, stderr after); fails the test if it does not end within ``timeout_s``.
+    ``script``: run the installed console script (as a user types ``fogbench``), whose main
+    module the forkserver imports again before it forks the workers."""
+    exe = [str(Path(sys.executable).with_name("fogbench"))] if script else \
+        [sys.executable, "-m", "fogbench"]
+    proc = subprocess.Popen([*exe, "suite", "--scenarios", "scn",
                              "--out", "rep", "--jobs", "2", "--no-recording"], cwd=cwd,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             start_new_session=True)
@@ -431,3 +435,45 @@ def test_an_error_names_the_line_of_the_file_when_blank_lines_lie_between_rows(t
                        "gyro_z=table_rate_dps:dps")
     assert code == 2 and "line 105" in err, err
     assert snapshot(tmp_path) == before
+
+
+@pytest.mark.parametrize("moment", range(10))
+def test_the_suite_stopped_at_any_of_ten_moments_prints_no_traceback(home, moment):
+    """SIGINT to the process group or SIGTERM to the main process at ten moments of a suite on
+    two workers (while they start, simulate, fit, score and as the reports are written): one
+    line, 130 or 143, never a worker's traceback. Run as the console script: the forkserver
+    imports its main module, and with it the command line's signal handlers, which the workers
+    then inherited (a SIGTERM from the parent raised Terminated in a worker's loop, whose
+    traceback multiprocessing printed); a worker's SIGTERM now ends it silently."""
+    long = SCENARIO.replace("duration_s = 30.0", "duration_s = 120.0").replace(
+        'type = "hold"', 'type = "rate"\nrate_dps = 5.0')
+    (home / "scn" / "tiny.toml").write_text(long)
+    (home / "scn" / "tiny2.toml").write_text(long.replace('name = "tiny"', 'name = "tiny2"'))
+    sig = signal.SIGINT if moment % 2 == 0 else signal.SIGTERM
+    returncode, seen, err = _signal_suite(home, sig, lambda seen: "suite" in seen,
+                                          wait_s=60, after_s=0.4 * moment, timeout_s=60,
+                                          hung="the suite hung after the signal", script=True)
+    err = seen + err
+    assert "Traceback" not in err and "KeyboardInterrupt" not in err, err
+    assert returncode in ((130 if sig == signal.SIGINT else 143), 0), err
+    assert _part_dirs(home) == []
+
+
+def test_a_worker_ends_on_sigterm_silently_whatever_handler_it_inherited():
+    """A worker whose process inherited the command line's handlers (the forkserver imports
+    the console script's main module, and with it fogbench.cli, which installs them) is set by
+    the pool's initializer to end on SIGTERM without raising Terminated in its loop (whose
+    traceback multiprocessing would print)."""
+    code = ("import os, signal, sys, time\n"
+            "from fogbench.outputs import interrupts\n"
+            "interrupts.install()\n"
+            "from fogbench.run.engines import _worker_init\n"
+            "_worker_init(os.getppid())\n"
+            "print(signal.getsignal(signal.SIGTERM) == signal.SIG_DFL, flush=True)\n"
+            "time.sleep(30)\n")
+    proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    assert proc.stdout.readline().strip() == "True"
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=30)
+    assert proc.returncode == -signal.SIGTERM and err == ""

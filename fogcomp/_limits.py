@@ -8,7 +8,7 @@ import os
 import signal
 import threading
 
-__all__ = ["MethodTimeout", "MethodExit", "time_limit", "no_exit"]
+__all__ = ["MethodTimeout", "MethodExit", "time_limit", "no_exit", "sigint_seen"]
 
 
 class MethodTimeout(BaseException):
@@ -63,3 +63,29 @@ def no_exit(what: str):
         yield
     finally:
         os._exit = real
+
+
+@contextlib.contextmanager
+def sigint_seen():
+    """A list that holds True once a real SIGINT (Ctrl-C) arrived inside the block, the
+    handler that was there still run; a method raising KeyboardInterrupt itself leaves it
+    empty. Only in the main thread (elsewhere no signal arrives), and only where SIGINT is not
+    ignored (a worker process of a pool ignores it: its parent handles Ctrl-C)."""
+    seen: list = []
+    if threading.current_thread() is not threading.main_thread() or \
+            signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+        yield seen
+        return
+    before = signal.getsignal(signal.SIGINT)
+
+    def handler(signum, frame):
+        seen.append(True)
+        if callable(before):
+            before(signum, frame)
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGINT, handler)
+    try:
+        yield seen
+    finally:
+        signal.signal(signal.SIGINT, before)

@@ -28,13 +28,10 @@ temperature, its rate and the attitude, plus white noise, at 100 Hz.
 
 from __future__ import annotations
 
-import contextlib
 import copy
 import inspect
 import math
-import signal
 import tempfile
-import threading
 import time
 import warnings
 from dataclasses import dataclass, field
@@ -44,7 +41,7 @@ import numpy as np
 
 from ._data import GyroData
 from ._estimator import NotFittedError
-from ._limits import MethodExit, MethodTimeout, no_exit, time_limit
+from ._limits import MethodExit, MethodTimeout, no_exit, sigint_seen, time_limit
 from ._persistence import load_model
 from ._registry import class_problem, get_method
 
@@ -202,36 +199,12 @@ def check_method(method, params: dict | None = None, *, samples: int = 2000,
     return report
 
 
-@contextlib.contextmanager
-def _sigint_seen():
-    """A list that holds True once a real SIGINT (Ctrl-C) arrived inside the block, the
-    handler that was there still run; a method raising KeyboardInterrupt itself leaves it
-    empty. Only in the main thread (elsewhere no signal arrives)."""
-    seen: list = []
-    if threading.current_thread() is not threading.main_thread():
-        yield seen
-        return
-    before = signal.getsignal(signal.SIGINT)
-
-    def handler(signum, frame):
-        seen.append(True)
-        if callable(before):
-            before(signum, frame)
-        raise KeyboardInterrupt
-
-    signal.signal(signal.SIGINT, handler)
-    try:
-        yield seen
-    finally:
-        signal.signal(signal.SIGINT, before)
-
-
 def _run_rule(rule: str, cls, params: dict, samples: int, probe_samples: int,
               timeout_s) -> RuleResult:
     """One rule on records of its own, within the time limit, ``os._exit`` a failure."""
     data, ref = _record(samples)
     t0 = time.perf_counter()
-    with _sigint_seen() as seen:
+    with sigint_seen() as seen:
         try:
             with time_limit(timeout_s, rule, verb="finish"), no_exit(f"rule {rule}"):
                 msg = _RULES[rule](cls, params, data, ref, probe_samples)

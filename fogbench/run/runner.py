@@ -11,6 +11,8 @@ compensator of the error model can beat without also filtering the signal). A me
 
 from __future__ import annotations
 
+import contextlib
+
 import dataclasses
 import json
 import math
@@ -39,7 +41,7 @@ from fogbench.scenario import (
 from fogbench.scenario.load import RUNNER_SECTIONS
 from fogcomp import GyroData
 from fogcomp import metrics as M
-from fogcomp._limits import MethodTimeout, time_limit
+from fogcomp._limits import MethodExit, MethodTimeout, no_exit, sigint_seen, time_limit
 from fogcomp.units import DPH, DPS
 from sim.rig import RunData, simulate_run
 from sim.thermal import ThermalHold
@@ -382,8 +384,25 @@ def oracle_filter(piece: Piece, params, fs_run: float) -> np.ndarray | None:
     return np.full(n, float(w @ piece.raw / w.sum()))
 
 
-#: What a method may raise and be reported as failed for (not KeyboardInterrupt: the user's)
-_METHOD_FAILURES = (Exception, MethodTimeout, SystemExit)
+#: What a method may raise and be reported as failed for (a KeyboardInterrupt only when no
+#: Ctrl-C arrived: the method raised it itself; see :func:`_guarded`)
+_METHOD_FAILURES = (Exception, MethodTimeout, MethodExit, SystemExit)
+
+
+@contextlib.contextmanager
+def _guarded(what: str, timeout_s: float | None):
+    """A method's code within its time limit, with ``os._exit`` a failure of the method and a
+    KeyboardInterrupt it raises itself (no Ctrl-C arrived) one too; a real Ctrl-C stops the
+    run as always."""
+    with sigint_seen() as seen:
+        try:
+            with time_limit(timeout_s, what, note=" (fit_timeout_s)"), no_exit(what):
+                yield
+        except KeyboardInterrupt as exc:
+            if seen:
+                raise
+            raise MethodExit(f"{what} raised KeyboardInterrupt itself (no Ctrl-C was "
+                             f"pressed){': ' + str(exc) if str(exc) else ''}") from None
 
 
 def _fit(ms, seed, fit_piece: Piece, fit_sel, score_sel, timeout_s: float | None = None):
@@ -399,7 +418,7 @@ def _fit(ms, seed, fit_piece: Piece, fit_sel, score_sel, timeout_s: float | None
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            with time_limit(timeout_s, f"{ms.label}: fit", note=" (fit_timeout_s)"):
+            with _guarded(f"{ms.label}: fit", timeout_s):
                 model = fogcomp.make_method(ms.name, **ms.params)
                 if seed is not None:
                     model.random_state = seed
@@ -436,7 +455,7 @@ def _score_model(model, rec: dict, it: "Scored", rd: RunData, axis_j: int,
     if model is None:
         return {"status": "failed", "error": rec["error"]}, None
     try:
-        with time_limit(timeout_s, "compensate", note=" (fit_timeout_s)"):
+        with _guarded("compensate", timeout_s):
             t0 = time.perf_counter()
             out = np.asarray(model.compensate(it.piece.gyro()), dtype=float)
             dt = time.perf_counter() - t0

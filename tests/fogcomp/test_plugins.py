@@ -26,6 +26,8 @@ FAILING = {
     "Exits": "SystemExit",
     "BadConstructor": "planted failure in __init__",
     "Broken": "does not import: ImportError: planted",
+    "HardExits": "os._exit(0)",
+    "RaisesInterrupt": "raised KeyboardInterrupt itself",
 }
 
 
@@ -173,3 +175,20 @@ def test_a_plug_in_named_as_a_built_in_is_named_and_the_built_in_runs(entry_poin
     code, _, err = run_cli("check", s)
     assert code == 0
     assert "fogbench: warning:" in err and "entry point 'kalman'" in err
+
+
+@pytest.mark.parametrize("jobs", ["1", "2"])
+def test_a_plugin_ending_the_process_or_raising_keyboard_interrupt_fails_only_itself(
+        tmp_path, jobs):
+    """os._exit(0) in a plug-in's fit, or a KeyboardInterrupt it raises itself, is that
+    method's failure: the run goes on, ends 0 with every other method scored, and leaves no
+    work folder (on one process and on two)."""
+    s = _scenario(tmp_path, ["plugin_methods:HardExits", "plugin_methods:RaisesInterrupt"])
+    code, _, err = run_cli("run", s, "--out", tmp_path / "run", "--no-recording",
+                           "--no-figures", "--quiet", "--replicates", "2", "--jobs", jobs)
+    assert code == 0, err
+    report = (tmp_path / "run" / "report.md").read_text()
+    assert "os._exit(0)" in report and "raised KeyboardInterrupt itself" in report
+    row = next(ln for ln in report.splitlines() if ln.startswith("| wavelet_soft |"))
+    assert "FAILED" not in row
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run", "s.toml"]

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import re
 import os
 import shutil
 from pathlib import Path
@@ -19,6 +20,13 @@ __all__ = ["MonteCarloError", "replicate_doc", "WorkDir", "scenario_digest"]
 
 class MonteCarloError(ValueError):
     """A Monte Carlo run cannot go on as asked (e.g. ``--resume`` on another scenario)."""
+
+
+def _device_digest(text: str) -> str | None:
+    """The SHA-256 of the device file a scenario's text holds (``[fog] device = ...``, written
+    into the text by the loader), or None."""
+    m = re.search(r"^# \[fog\] device = .*\(sha256 ([0-9a-f]{64})\):$", text, re.M)
+    return m.group(1) if m else None
 
 
 def scenario_digest(text: str) -> str:
@@ -68,10 +76,17 @@ class WorkDir:
                          "scenario_file": str(sc.path), "scenario_sha256": scenario_digest(sc.text),
                          "fogbench": versions().get("fogbench"), "method_seeds": method_seeds,
                          "methods": sorted(methods) if methods else None,
-                         "method_environment": method_environment() or None}
+                         "method_environment": method_environment() or None,
+                         "device_sha256": _device_digest(sc.text)}
         self._claim = Claim(self.path, self._busy)
 
     def _mismatch(self, found: dict, where: Path) -> str | None:
+        if "device_sha256" in found and found["device_sha256"] != self.identity["device_sha256"]:
+            # the scenario's text holds its device file's: name the file that changed
+            return (f"--resume: {where} holds replicates of another device file, or of the "
+                    "scenario's device file before it was edited (device_sha256: "
+                    f"{found['device_sha256']!r}, now {self.identity['device_sha256']!r}); "
+                    "refused. Run without --resume to start afresh")
         for key, what in (("scenario_sha256", "another scenario file (or an edited one)"),
                           ("fogbench", "another fogbench version"),
                           ("method_seeds", "another method_seeds"), ("methods", "other methods"),

@@ -401,6 +401,24 @@ def test_a_run_keeps_the_device_it_ran_and_resume_refuses_an_edited_one(tmp_path
     assert code == 2 and str(s) in err and "[fog] key 'device'" in err and str(dev) in err
 
 
+def test_resume_after_the_device_file_was_edited_names_the_device_file(tmp_path):
+    """Replicates kept by a killed run, then the device file edited: --resume refuses naming the
+    device file, not "the scenario file was edited"."""
+    from fogbench.run.montecarlo import MonteCarloError, ScenarioMC
+
+    dev = tmp_path / "dev.toml"
+    dev.write_text(preset_text("tactical"))
+    s = tmp_path / "s.toml"
+    s.write_text(SMALL_SCENARIO.replace('preset = "tactical"', 'device = "dev.toml"'))
+    first = ScenarioMC(s, tmp_path / "run", replicates=3)
+    first.run_first()                     # replicate 0 kept, then the process "is killed"
+    first.work.release()
+    dev.write_text(preset_text("tactical").replace("arw_deg_rt_h = 0.03", "arw_deg_rt_h = 0.06"))
+    with pytest.raises(MonteCarloError, match="another device file, or of the scenario's device "
+                                              "file before it was edited"):
+        ScenarioMC(s, tmp_path / "run", replicates=3, resume=True)
+
+
 # ---------------------------------------------------------------------------------------------
 # thermal
 def _thermal_program():

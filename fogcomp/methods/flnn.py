@@ -768,7 +768,7 @@ class Flnn(_FlnnBase):
     ----------
     coef_ : ndarray, shape (10,)
         d0 (rad/s), d1-d3 (rad/s/g), d4-d9 (rad/s/g^2).
-    loss_curve_ : ndarray, shape (n_iter_ + 1,)
+    loss_curve_ : ndarray, shape (``n_iter_`` + 1,)
         MSE over the presented samples (normalised units) with the initial weights and after
         each pass.
     n_presented_ : int

@@ -490,7 +490,7 @@ class Bp(Compensator):
         Output normalisation, rad/s.
     initial_loss_ : float
         Normalised MSE at the start of gradient descent.
-    loss_curve_ : ndarray, shape (n_epochs_ + 1,)
+    loss_curve_ : ndarray, shape (``n_epochs_`` + 1,)
         Normalised MSE at the start and after each epoch.
     n_epochs_ : int
         Number of gradient (or accepted LM) steps taken.

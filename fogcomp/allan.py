@@ -601,7 +601,8 @@ def allan_analysis(rate, fs: float, taus=None, *, ci: float = ONE_SIGMA_CI, mode
     ci : float, optional
         Probability content of the intervals, of the curve and of the terms (default 0.6827).
     model : str, optional
-        A stated model (``"N + B + K"``); default: selected (:func:`identify_noise_model`).
+        A stated model (``"N + B + K"``); default: selected
+        (:func:`fogcomp.noise.identify_noise_model`).
     segments : list of (int, int), optional
         Sample ranges [start, stop) of gap-free pieces of ``rate``: each piece's second
         differences are computed inside it and the squared ones pooled; the EDF of the

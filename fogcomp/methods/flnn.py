@@ -5,8 +5,9 @@ Two estimators of the same linear-in-the-coefficients drift model (paper eqs. 8-
     w = d0 + d1 gx + d2 gy + d3 gz + d4 gx^2 + d5 gy^2 + d6 gz^2 + d7 gx gy + d8 gy gz + d9 gx gz,
 
 ``flnn`` (the paper's LMS training, eqs. 5-7) and ``flnn_lstsq`` (the closed-form least-squares
-solution, eqs. 2-4), plus the identifiability analysis both share, which :mod:`model_lstsq` and
-:mod:`temperature` reuse: :func:`lstsq_identify` and :class:`Identifiability`.
+solution, eqs. 2-4), plus the identifiability analysis both share, which
+:mod:`~fogcomp.methods.model_lstsq` and :mod:`~fogcomp.methods.temperature` reuse:
+:func:`lstsq_identify` and :class:`Identifiability`.
 
 Identifiability in one paragraph: in static positions the specific force is the gravity
 projection, ``|g| = 1``, so ``gx^2 + gy^2 + gz^2 = 1`` and the design columns of d0, d4, d5, d6

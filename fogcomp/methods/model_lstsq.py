@@ -65,7 +65,7 @@ class ModelLstsq(Compensator):
     scale-factor column carries no noise and every coefficient keeps its physical meaning. At
     estimate time the true rate is unknown; with ``raw = (1 + k) w + e`` (k the scale-factor
     error, e the sum of the other terms) the error is ``raw - w = (k raw + e) / (1 + k)``, which
-    is what :meth:`estimate_error` returns (for the scale-factor part alone,
+    is what :meth:`~fogcomp.Compensator.estimate_error` returns (for the scale-factor part alone,
     ``error ~ k / (1 + k) raw``); the compensated rate ``(raw - e) / (1 + k)`` is then exact
     for data that follow the model.
 

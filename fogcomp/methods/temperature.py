@@ -781,10 +781,10 @@ class AcoBp(Bp):
        evenly spaced over ``[-init_scale, init_scale]``; pheromone ``tau[j, k] = 1`` on every
        candidate at the start.
     2. Each of the 10 ants builds a network by picking, for every parameter j, candidate k with
-       probability ``tau[j, k]^alpha / sum_k tau[j, k]^alpha`` (:func:`aco_sample`; there is no
+       probability ``tau[j, k]^alpha / sum_k tau[j, k]^alpha`` (``aco_sample``; there is no
        heuristic information for a weight, so the pheromone alone drives the choice).
     3. Each ant's network is scored by its MSE on the (normalised) training data.
-    4. Pheromone update (:func:`aco_update`): evaporation ``tau <- (1 - rho) tau`` with
+    4. Pheromone update (``aco_update``): evaporation ``tau <- (1 - rho) tau`` with
        rho = 0.9, then the iteration-best and the global-best ants deposit ``L_ref / L`` on the
        candidates they chose (L their MSE, L_ref the MSE of the all-zero network, so better ants
        deposit more), then ``tau`` is clipped to ``[tau_min, tau_max]`` with

@@ -1,5 +1,7 @@
 """The engineer's deterministic error model, fitted in one least-squares solve.
 
+::
+
     error = b0 + k w + sum_i d_i g_i + sum_{i<=j} d_ij g_i g_j
             + c_T (T - T0) + c_Tdot dT/dt  [+ c_T2 (T - T0)^2]
 

@@ -44,3 +44,4 @@ html_static_path = []
 # The docs' own extensions, in docs/_ext/.
 sys.path.insert(0, os.path.abspath("_ext"))
 extensions.append("scenario_keys")   # the scenario keys' tables, from the validator
+extensions.append("citation_labels")  # numpydoc's "[1]_" shown as [1] on the MyST API pages

@@ -3,23 +3,24 @@ the identification of its noise terms (:mod:`fogcomp.noise`).
 
 The Allan variance of a rate signal ``y`` sampled every ``tau0 = 1/fs`` seconds, at the averaging
 time ``tau = m * tau0``, is computed from the integrated angle ``x`` (``x[0] = 0``,
-``x[k] = tau0 * sum(y[:k])``, so ``len(x) = n + 1``) as (IEEE Std 952-1997 Annex C, NIST SP 1065
-eq. 11)::
+``x[k] = tau0 * sum(y[:k])``, so ``len(x) = n + 1``) as (IEEE Std 952-1997 Annex C [1]_,
+NIST SP 1065 eq. 11 [2]_)::
 
     avar(tau) = sum_k (x[k+2m] - 2 x[k+m] + x[k])**2 / (2 tau**2 (n + 1 - 2m)),
 
 k = 0 ... n - 2m, which equals half the mean square difference of every pair of adjacent,
 overlapping cluster averages of ``m`` samples.
 
-The noise terms (IEEE Std 952 and Gauss-Markov) are identified from the curve by
+The noise terms (IEEE Std 952 [1]_ and Gauss-Markov [3]_) are identified from the curve by
 :func:`fogcomp.noise.identify_noise_model`, the one identifier of the project;
 :func:`allan_analysis` computes the curve, its intervals and that identification of a record.
 
-References
-----------
+.. rubric:: References
+
 .. [1] IEEE Std 952-1997, "IEEE Standard Specification Format Guide and Test Procedure for
    Single-Axis Interferometric Fiber Optic Gyros", Annex C (Allan variance method).
-.. [2] W. J. Riley, "Handbook of Frequency Stability Analysis", NIST SP 1065 (2008), eq. 11.
+.. [2] W. J. Riley, "Handbook of Frequency Stability Analysis", NIST SP 1065 (2008),
+   eq. 11.
 .. [3] N. El-Sheimy, H. Hou, X. Niu, "Analysis and modeling of inertial sensors using Allan
    variance", IEEE Trans. Instrum. Meas. 57(1), 140-149 (2008).
 """
@@ -601,7 +602,8 @@ def allan_analysis(rate, fs: float, taus=None, *, ci: float = ONE_SIGMA_CI, mode
     ci : float, optional
         Probability content of the intervals, of the curve and of the terms (default 0.6827).
     model : str, optional
-        A stated model (``"N + B + K"``); default: selected (:func:`identify_noise_model`).
+        A stated model (``"N + B + K"``); default: selected
+        (:func:`fogcomp.noise.identify_noise_model`).
     segments : list of (int, int), optional
         Sample ranges [start, stop) of gap-free pieces of ``rate``: each piece's second
         differences are computed inside it and the squared ones pooled; the EDF of the

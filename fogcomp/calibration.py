@@ -1,6 +1,7 @@
 """Six-position + three-rotation calibration of a gyro/accelerometer triad (Ferraris procedure).
 
-The sensor model (Ferraris et al. 1995, eqs. 1-2; the same as imucal's ``FerrarisCalibrationInfo``)::
+The sensor model (Ferraris et al. 1995 [1]_, eqs. 1-2; the same as imucal's
+``FerrarisCalibrationInfo`` [2]_)::
 
     acc_raw = K_a R_a a + b_a                        a: specific force, m/s^2
     gyr_raw = K_g R_g w + K_ga a + b_g               w: angular rate, rad/s
@@ -28,8 +29,8 @@ it) and down (``-``), then one rotation of a known angle about each body axis.
   giving the columns of ``W = K_g R_g theta``; ``K_g`` is the row norms of ``W / theta`` and
   ``R_g = K_g^-1 W / theta``.
 
-References
-----------
+.. rubric:: References
+
 .. [1] F. Ferraris, U. Grimaldi, M. Parvis, "Procedure for effortless in-field calibration of
    three-axis rate gyros and accelerometers", Sensors and Materials 7(5), 311-330 (1995).
 .. [2] imucal (MaD-Lab, FAU Erlangen), ``FerrarisCalibration``: the same procedure; its published

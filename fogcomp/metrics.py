@@ -5,8 +5,12 @@ values; :func:`summary` converts to datasheet units for people, and then the uni
 key (``std_dph``, ``arw_deg_rt_h``). Functions that return several values return a dict whose
 keys carry the unit (``angle_error_final_rad``).
 
-References
-----------
+The bias stability (:func:`bias_stability`) is the standard deviation of the smoothed
+output [1]_; the noise terms (:func:`noise_terms`) are IEEE Std 952's Allan variance noise
+terms [2]_.
+
+.. rubric:: References
+
 .. [1] Qiu et al., "ACO-BP FOG temperature compensation", Electronics Optics & Control 30(7),
    eq. 5 (bias stability of the smoothed output).
 .. [2] IEEE Std 952-1997, Annex C (Allan variance noise terms).

@@ -30,7 +30,7 @@ f = (fx, fy, fz) (g), coil temperature T (deg C) and its rate Tdot (deg C/s):
   memory is far shorter than a record: it is noise, not a switch-on bias).
 - ``rrw``: rate random walk K: the rate's increments per sample have std K sqrt(1/fs).
 - ``rate_ramp``: R t.
-- ``scale_factor``: (k0 + kT (T - T_ref)) w_a + k_nl w_a |w_a| / w_fs  (k_nl at full scale).
+- ``scale_factor``: (k0 + kT (T - T_ref)) w_a + k_nl w_a ``abs(w_a)`` / w_fs  (k_nl at full scale).
 - ``misalignment``: sum over the other two axes b of M[a, b] w_b (small angles, rad).
 - ``g_sensitivity``: d1 fx + d2 fy + d3 fz (paper 004, eq. 8, the linear terms).
 - ``g2_sensitivity``: d4 fx^2 + d5 fy^2 + d6 fz^2 + d7 fx fy + d8 fy fz + d9 fx fz (paper 004,

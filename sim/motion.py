@@ -199,7 +199,7 @@ def build_commands(segments, dt: float, tilt0: float = 0.0, tilt_slew: float = m
     """Servo commands for a whole motion program at physics step ``dt`` (s).
 
     ``tilt0`` is the tilt the table starts at (rad), ``tilt_slew`` the peak tilt rate of a move
-    (rad/s). For long programs prefer :func:`segment_commands`, segment by segment.
+    (rad/s). For long programs prefer ``segment_commands``, segment by segment.
     """
     tilts, rates = [], []
     tilt, last = tilt0, 0.0

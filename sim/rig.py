@@ -82,8 +82,9 @@ def simulate_run(rig: Rig, run: Run, progress=None, seed: int | None = None,
 
     ``seed`` (default ``run.seed``) seeds every random draw of the power-on: the FOG's switch-on
     draws and noise terms, and the temperature sensor's noise. The table's motion is
-    deterministic: ``truth``, a :class:`Truth` simulated before for the same ``rig`` and ``run``,
-    is reused as it is (a Monte Carlo replicate then costs only the random draws).
+    deterministic: ``truth``, a :class:`~sim.rate_table.Truth` simulated before for the same
+    ``rig`` and ``run``, is reused as it is (a Monte Carlo replicate then costs only the random
+    draws).
     """
     seed = run.seed if seed is None else seed
     if truth is None:

@@ -81,15 +81,23 @@ class ThermalProgram:
 class TempSensor:
     """The temperature sensor a lab reads (SI; temperatures in deg C).
 
-    location : "housing" or "coil", the node it is bonded to.
-    time_constant : its own first-order lag behind that node, s (0: none).
-    noise : white noise per reading, deg C (1 sigma).
-    resolution : quantisation step, deg C (0: none); 0.0625 C is a 12-bit digital sensor's LSB.
-    rate : readings per second, Hz (0: one per FOG sample). Between readings the last is held.
-    rate_window : dT/dt is the least-squares slope of the readings in a window of this length
-        centred on each reading, s (``2 h + 1`` readings, ``h = max(1, round(rate_window / dt /
-        2))`` at reading spacing ``dt``), as a lab fits its log; see :func:`read_sensor` for the
-        ends of a record and for records shorter than the window.
+    Attributes
+    ----------
+    location : {"housing", "coil"}
+        The node it is bonded to.
+    time_constant : float
+        Its own first-order lag behind that node, s (0: none).
+    noise : float
+        White noise per reading, deg C (1 sigma).
+    resolution : float
+        Quantisation step, deg C (0: none); 0.0625 C is a 12-bit digital sensor's LSB.
+    rate : float
+        Readings per second, Hz (0: one per FOG sample). Between readings the last is held.
+    rate_window : float
+        dT/dt is the least-squares slope of the readings in a window of this length centred on
+        each reading, s (``2 h + 1`` readings, ``h = max(1, round(rate_window / dt / 2))`` at
+        reading spacing ``dt``), as a lab fits its log; see :func:`read_sensor` for the ends of
+        a record and for records shorter than the window.
     """
 
     location: str = "coil"

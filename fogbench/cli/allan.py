@@ -15,8 +15,9 @@ def add_parser(sub) -> None:
     a.add_argument("--columns", help="gyro channels to analyse, comma-separated (default all)")
     a.add_argument("--out", help="folder for allan.json and one PNG per axis")
     a.add_argument("--curve", help="identify the noise terms of a given curve instead "
-                   "(tau_s, adev_<unit>, optional adev_ci_low_/high_<unit>, optional axis; its "
-                   "record's sample rate and length from --fs/--samples or its first line)")
+                   "(tau_s, adev_<unit>, optional adev_ci_low_<unit>/adev_ci_high_<unit>, "
+                   "optional axis; its record's sample rate and length from --fs/--samples or "
+                   "its first line)")
     a.add_argument("--curve-ci", type=float,
                    help="probability content of the curve's interval columns (e.g. 0.95)")
     a.add_argument("--ci", type=float, help="probability content of the computed intervals "

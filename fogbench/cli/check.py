@@ -9,7 +9,7 @@ import sys
 def add_parser(sub) -> None:
     c = sub.add_parser("check", help="validate scenario files (nothing is simulated or written)")
     c.add_argument("scenario", nargs="+",
-                   help="scenario file(s) (TOML), or a folder: every *.toml in it")
+                   help="scenario file(s) (TOML), or a folder: every .toml file in it")
     c.set_defaults(func=_check)
 
 

@@ -1,12 +1,13 @@
 """Functional-link neural network (FLNN) for the g-dependent static drift of a strapdown gyro.
 
-Two estimators of the same linear-in-the-coefficients drift model (paper eqs. 8-10),
+Two estimators of the same linear-in-the-coefficients drift model (paper [1]_, eqs. 8-10),
 
     w = d0 + d1 gx + d2 gy + d3 gz + d4 gx^2 + d5 gy^2 + d6 gz^2 + d7 gx gy + d8 gy gz + d9 gx gz,
 
-``flnn`` (the paper's LMS training, eqs. 5-7) and ``flnn_lstsq`` (the closed-form least-squares
-solution, eqs. 2-4), plus the identifiability analysis both share, which :mod:`model_lstsq` and
-:mod:`temperature` reuse: :func:`lstsq_identify` and :class:`Identifiability`.
+``flnn`` (the paper's LMS training, eqs. 5-7, in its normalised form [2]_) and ``flnn_lstsq``
+(the closed-form least-squares solution, eqs. 2-4), plus the identifiability analysis both
+share, which :mod:`~fogcomp.methods.model_lstsq` and :mod:`~fogcomp.methods.temperature` reuse:
+:func:`lstsq_identify` and :class:`Identifiability`.
 
 Identifiability in one paragraph: in static positions the specific force is the gravity
 projection, ``|g| = 1``, so ``gx^2 + gy^2 + gz^2 = 1`` and the design columns of d0, d4, d5, d6
@@ -18,8 +19,8 @@ direction. Both methods here report the minimum-norm representative and say whic
 are determined. Data with ``|g| != 1`` (a centrifuge, or an off-axis gyro on a spinning table)
 identifies all ten.
 
-References
-----------
+.. rubric:: References
+
 .. [1] Chen Xiyuan, Cheng Qiming, "Function-type neural networks application for nonlinear
    evaluation of strapdown gyroscope", J. Yancheng Institute of Technology, 2000 (1): 8-10
    (fogbench seed 004). Eqs. 1-4: XW = Y and its closed-form solutions; eqs. 5-7: the FLNN
@@ -768,7 +769,7 @@ class Flnn(_FlnnBase):
     ----------
     coef_ : ndarray, shape (10,)
         d0 (rad/s), d1-d3 (rad/s/g), d4-d9 (rad/s/g^2).
-    loss_curve_ : ndarray, shape (n_iter_ + 1,)
+    loss_curve_ : ndarray, shape (``n_iter_`` + 1,)
         MSE over the presented samples (normalised units) with the initial weights and after
         each pass.
     n_presented_ : int

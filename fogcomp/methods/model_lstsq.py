@@ -1,16 +1,18 @@
 """The engineer's deterministic error model, fitted in one least-squares solve.
 
+::
+
     error = b0 + k w + sum_i d_i g_i + sum_{i<=j} d_ij g_i g_j
             + c_T (T - T0) + c_Tdot dT/dt  [+ c_T2 (T - T0)^2]
 
 with w the true angular rate (rad/s), g the specific force (g), T the temperature (degC). It is
-the union of the scale-factor error, the g-sensitive drift of the FLNN paper (eq. 8) and the
-temperature model of the ACO-BP paper (eq. 7), which is how a calibration engineer would write
-the gyro's systematic error before reaching for a neural network: a baseline for the learned
-methods.
+the union of the scale-factor error, the g-sensitive drift of the FLNN paper (eq. 8 [1]_) and
+the temperature model of the ACO-BP paper (eq. 7 [2]_), which is how a calibration engineer
+would write the gyro's systematic error (the terms of IEEE Std 952's FOG model equation [3]_)
+before reaching for a neural network: a baseline for the learned methods.
 
-References
-----------
+.. rubric:: References
+
 .. [1] Chen & Cheng 2000 (fogbench seed 004), eq. 8: the bias, g and g^2 terms.
 .. [2] Qiu et al. 2023 (fogbench seed 002), eq. 7: the T and dT/dt terms (eq. 1, the Shupe
    error, is why dT/dt enters).
@@ -65,7 +67,7 @@ class ModelLstsq(Compensator):
     scale-factor column carries no noise and every coefficient keeps its physical meaning. At
     estimate time the true rate is unknown; with ``raw = (1 + k) w + e`` (k the scale-factor
     error, e the sum of the other terms) the error is ``raw - w = (k raw + e) / (1 + k)``, which
-    is what :meth:`estimate_error` returns (for the scale-factor part alone,
+    is what :meth:`~fogcomp.Compensator.estimate_error` returns (for the scale-factor part alone,
     ``error ~ k / (1 + k) raw``); the compensated rate ``(raw - e) / (1 + k)`` is then exact
     for data that follow the model.
 

@@ -1,21 +1,22 @@
 """Temperature compensation of the FOG bias: polynomial, BP network and ACO-BP network.
 
 The Shupe effect makes the bias of a fiber coil depend on its temperature T and on the rate of
-change dT/dt (paper eq. 1). Three estimators of ``bias = f(T, dT/dt)``, all supervised (they
-learn ``error = rate - reference_rate`` in rad/s from a thermal-chamber record):
+change dT/dt (paper [1]_, eq. 1). Three estimators of ``bias = f(T, dT/dt)``, all supervised
+(they learn ``error = rate - reference_rate`` in rad/s from a thermal-chamber record):
 
 ``poly_temp``
     ``y = k1 + k2 T + k3 dT/dt`` by least squares (paper eq. 7).
 ``bp``
     A 2-9-1 back-propagation network (eqs. 2-4) trained by full-batch gradient descent from
-    random initial weights.
+    random initial weights (MATLAB's ``tansig``/``purelin`` network and ``traingd`` [3]_).
 ``aco_bp``
     The same network, its 37 initial weights and thresholds chosen by an ant colony
-    optimisation (section 2.2), then trained as ``bp``; ``search="random"`` replaces the
-    colony by a random search with the same number of loss evaluations (the fair control).
+    optimisation (section 2.2, in the MAX-MIN form [2]_), then trained as ``bp``;
+    ``search="random"`` replaces the colony by a random search with the same number of loss
+    evaluations (the fair control).
 
-References
-----------
+.. rubric:: References
+
 .. [1] Qiu Haitao, Xu Mengtong, Liu Wei, Ma Haibin, "Research on temperature compensation method
    of fiber optic gyroscope based on ACO-BP neural network", Electronics Optics & Control 30(7),
    2023, 78-81, 118 (fogbench seed 002). Eq. 1 Shupe error; eqs. 2-4 BP network and its error;
@@ -490,7 +491,7 @@ class Bp(Compensator):
         Output normalisation, rad/s.
     initial_loss_ : float
         Normalised MSE at the start of gradient descent.
-    loss_curve_ : ndarray, shape (n_epochs_ + 1,)
+    loss_curve_ : ndarray, shape (``n_epochs_`` + 1,)
         Normalised MSE at the start and after each epoch.
     n_epochs_ : int
         Number of gradient (or accepted LM) steps taken.
@@ -781,10 +782,10 @@ class AcoBp(Bp):
        evenly spaced over ``[-init_scale, init_scale]``; pheromone ``tau[j, k] = 1`` on every
        candidate at the start.
     2. Each of the 10 ants builds a network by picking, for every parameter j, candidate k with
-       probability ``tau[j, k]^alpha / sum_k tau[j, k]^alpha`` (:func:`aco_sample`; there is no
+       probability ``tau[j, k]^alpha / sum_k tau[j, k]^alpha`` (``aco_sample``; there is no
        heuristic information for a weight, so the pheromone alone drives the choice).
     3. Each ant's network is scored by its MSE on the (normalised) training data.
-    4. Pheromone update (:func:`aco_update`): evaporation ``tau <- (1 - rho) tau`` with
+    4. Pheromone update (``aco_update``): evaporation ``tau <- (1 - rho) tau`` with
        rho = 0.9, then the iteration-best and the global-best ants deposit ``L_ref / L`` on the
        candidates they chose (L their MSE, L_ref the MSE of the all-zero network, so better ants
        deposit more), then ``tau`` is clipped to ``[tau_min, tau_max]`` with

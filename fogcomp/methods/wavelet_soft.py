@@ -83,7 +83,7 @@ def sure_threshold(x) -> float:
     """SURE threshold of coefficients of unit noise variance (MATLAB ``rigrsure``).
 
     For soft thresholding of x_i ~ N(mu_i, 1) at t, Stein's unbiased estimate of the risk is
-    ``n - 2 #{|x_i| <= t} + sum min(x_i^2, t^2)``; it is minimised over t in {|x_i|}.
+    ``n - 2 #{abs(x_i) <= t} + sum min(x_i^2, t^2)``; it is minimised over t in ``{abs(x_i)}``.
 
     Parameters
     ----------

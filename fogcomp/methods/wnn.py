@@ -661,9 +661,9 @@ class WaveletNeuralNetwork(Compensator):
 
     *Initialisation* (the paper gives none): w_ij uniform in +-0.3/sqrt(k), b_j uniform in
     +-1, a_j = 3, w_j uniform in +-1/sqrt(l): with standardised inputs the hidden arguments
-    u = (z - b)/a start well inside the Morlet's central lobe (|u| < ~0.5), where the units are
-    smooth; started with a_j = 1 they sit on the oscillating flanks and the network, after 200
-    iterations, generalised 1.5-10 times worse to fresh samples in our trials.
+    u = (z - b)/a start well inside the Morlet's central lobe (``abs(u) < ~0.5``), where the
+    units are smooth; started with a_j = 1 they sit on the oscillating flanks and the network,
+    after 200 iterations, generalised 1.5-10 times worse to fresh samples in our trials.
 
     References
     ----------

@@ -19,16 +19,16 @@ Notes
 -----
 **Processes and their Allan variance** (``tau = m tau0``, ``tau0 = 1/fs``):
 
-=====  ==========================  ==========================  =====================================
-term   process                     coefficient (SI)            AVAR(tau)
-=====  ==========================  ==========================  =====================================
-Q      quantisation (white angle)  Q, rad (rms angle error)    3 Q^2 / tau^2
-N      white rate (ARW)            N, rad/sqrt(s)              N^2 / tau
-B      flicker rate (bias instab.) B, rad/s                    (2 ln 2 / pi) B^2
-K      rate random walk            K, rad/s/sqrt(s)            K^2 tau / 3
-R      rate ramp                   R, rad/s^2                  R^2 tau^2 / 2
-GM     first-order Gauss-Markov    sigma rad/s, T s            see below
-=====  ==========================  ==========================  =====================================
+=====  ===========================  ==========================  ====================================
+term   process                      coefficient (SI)            AVAR(tau)
+=====  ===========================  ==========================  ====================================
+Q      quantisation (white angle)   Q, rad (rms angle error)    3 Q^2 / tau^2
+N      white rate (ARW)             N, rad/sqrt(s)              N^2 / tau
+B      flicker rate (bias instab.)  B, rad/s                    (2 ln 2 / pi) B^2
+K      rate random walk             K, rad/s/sqrt(s)            K^2 tau / 3
+R      rate ramp                    R, rad/s^2                  R^2 tau^2 / 2
+GM     first-order Gauss-Markov     sigma rad/s, T s            see below
+=====  ===========================  ==========================  ====================================
 
 Q, N, B, K, R: IEEE Std 952-1997 Annex C, Table C.1 (B the flicker coefficient: its Allan floor
 is ``sqrt(2 ln 2 / pi) B = 0.664 B`` for tau well above the inverse of the flicker band's upper

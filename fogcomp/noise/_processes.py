@@ -92,7 +92,7 @@ def avar_gm(taus, T: float, fs: float) -> np.ndarray:
 
     The closed form (:mod:`fogcomp.noise`'s docstring) where ``m tau0 / T >= 1``; below, where
     it cancels catastrophically (``1 - phi^2`` of a T of many samples has lost all its digits),
-    its Taylor series in ``x = tau0 / T`` with exact integer coefficients (:func:`_gm_series`)."""
+    its Taylor series in ``x = tau0 / T`` with exact integer coefficients (``_gm_series``)."""
     m_all = np.rint(np.asarray(taus, dtype=float) * fs).astype(np.int64)
     x = 1.0 / (fs * T)
     out = np.empty(m_all.shape, dtype=float)

@@ -149,7 +149,7 @@ class NoiseModel:
     model_error: float = 0.001
 
     def term(self, name: str) -> ModelTerm:
-        """The term ``"Q"``, ``"N"``, ``"B"``, ``"K"``, ``"R"`` (GM terms: :attr:`gm_terms`)."""
+        """The term ``"Q"``, ``"N"``, ``"B"``, ``"K"``, ``"R"`` (GM terms: ``gm_terms``)."""
         return next(t for t in self.terms if t.term == name)
 
     @property

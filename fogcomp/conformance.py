@@ -160,7 +160,7 @@ def check_method(method, params: dict | None = None, *, samples: int = 2000,
         after it are not run: the whole check takes at most about this long once a rule
         hangs); None: no limit.
     progress : callable, optional
-        Called with each :class:`RuleResult` as its rule ends (the command prints it).
+        Called with each ``RuleResult`` as its rule ends (the command prints it).
 
     Returns
     -------

@@ -198,6 +198,27 @@ def _check_where(opts: FitOptions) -> None:
         raise LogError("--input-axis/--heading-deg: only with --latitude-deg")
 
 
+def _log_identity(path) -> tuple:
+    """What makes two logs the same: the SHA-256 of the content (of what a gzip file holds),
+    else, for a file that cannot be read here, its resolved path (the reader says why)."""
+    import gzip
+    import hashlib
+
+    p = Path(path)
+    if not p.is_file():                     # a folder (a bag), a pipe: never opened here
+        return ("path", str(p.resolve()))
+    try:
+        with open(p, "rb") as f:
+            gz = f.read(2) == b"\x1f\x8b"
+        h = hashlib.sha256()
+        with (gzip.open(p, "rb") if gz else open(p, "rb")) as f:
+            for block in iter(lambda: f.read(1 << 20), b""):
+                h.update(block)
+        return ("content", h.hexdigest())
+    except (OSError, EOFError):
+        return ("path", str(p.resolve()))
+
+
 def _check_fit_flags(opts: FitOptions) -> float:
     """Every flag of ``device fit`` checked before any log is read; returns the intervals'
     probability."""
@@ -215,11 +236,12 @@ def _check_fit_flags(opts: FitOptions) -> float:
             if v is not None:
                 raise LogError(f"{flag}: only with --curve")
     seen = {}
-    for p in opts.static:   # the same log twice is not two power-ons
-        key = str(Path(p).resolve())
+    for p in opts.static:   # the same log twice (or the same bytes under two names, gzipped
+        key = _log_identity(p)   # or not) is not two power-ons
         if key in seen:
-            raise LogError(f"--static {p}: given twice (also as {seen[key]}); each static log "
-                           "is one power-on")
+            raise LogError(f"--static {p}: the same log as {seen[key]} (" + (
+                "the same file" if key[0] == "path" else "the same content under another "
+                "name") + "); each static log is one power-on")
         seen[key] = p
     if opts.min_tau_s is not None and not (opts.min_tau_s > 0 and math.isfinite(opts.min_tau_s)):
         raise LogError(f"--min-tau-s: expected a positive number of seconds, got "

@@ -711,3 +711,24 @@ def test_fs_given_over_a_curve_header_is_warned_of(tmp_path):
     code, _, err = run_cli("device", "fit", "--curve", curve, "--curve-ci", "0.95",
                            "--fs", "1234", "--out", tmp_path / "d.toml")
     assert "--fs 1234 overrides the curve's own sample_rate_hz=" in err, err
+
+
+def test_one_log_under_two_names_is_one_power_on(tmp_path):
+    """The same static log given twice (a copy, or gzipped beside the original) would make the
+    switch-on spread 0 [0, 0]: refused, naming both, before any log is read."""
+    import gzip
+    import shutil
+
+    log = tmp_path / "x.csv"
+    rng = np.random.default_rng(1)
+    log.write_text("time_s,gyro_x_dps\n" + "".join(
+        f"{i / 100:.2f},{v:.6e}\n" for i, v in enumerate(rng.standard_normal(5000) * 1e-3)))
+    shutil.copy(log, tmp_path / "copy.csv")
+    with open(log, "rb") as f, gzip.open(tmp_path / "x.csv.gz", "wb") as g:
+        g.write(f.read())
+    for other in ("copy.csv", "x.csv.gz"):
+        code, _, err = run_cli("device", "fit", "--static", log, "--static", tmp_path / other,
+                               "--axis", "x", "--out", tmp_path / "dev.toml")
+        assert code == 2, err
+        assert f"the same log as {log}" in err and "the same content under another name" in err
+    assert not (tmp_path / "dev.toml").exists()

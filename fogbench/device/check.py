@@ -1,5 +1,14 @@
 """``device check``: the device simulated at rest under a log's own conditions (sample rate,
-length, gap-free pieces) over replicates, its Allan curves set beside the log's."""
+length, gap-free pieces) over replicates, its Allan curves set beside the log's.
+
+The verdict is one test of the whole curve (:func:`curve_test`): the log's Allan deviations at
+every averaging time are one point in a space of as many dimensions; its distance from the
+twins' curves, measured with their covariance, is ranked among the same distance of each twin
+from the others. Under the hypothesis that the log is one more draw of the device, the log is
+exchangeable with the twins and its rank is uniform, so the p-value is exact at every record
+length and device, whatever the curves' distribution (a Monte Carlo test, Barnard 1963; Besag
+and Clifford 1989). The per-tau bands stay, to show where the curves part.
+"""
 
 from __future__ import annotations
 
@@ -10,10 +19,16 @@ import numpy as np
 
 from fogcomp.units import DPH
 
-__all__ = ["twin_curves", "check_device"]
+__all__ = ["twin_curves", "check_device", "curve_test"]
 
 CHECK_CI = 0.95                            # the log's interval and the twin's band in `check`
 MAX_CHECK_REPLICATES = 1000
+#: The level of the whole-curve test: the log disagrees with the device when p < this.
+CHECK_LEVEL = 0.05
+#: Shrinkage of the twins' covariance of log Allan deviations towards its diagonal: the
+#: covariance of T averaging times is estimated from R twins (R may be near T); any value in
+#: (0, 1] keeps the test exact, it only shapes its power.
+COVARIANCE_SHRINKAGE = 0.2
 
 
 # ---------------------------------------------------------------------------------------------
@@ -42,14 +57,64 @@ def twin_curves(params, fs: float, segments, taus, replicates: int, seed: int = 
     return out
 
 
-def check_device(curve, twin: np.ndarray) -> dict:
-    """Where the log's Allan curve and the twin's agree: at each tau, whether the log's
-    interval (``curve.low``, ``curve.high``) overlaps the twin's central band (the 2.5 and 97.5
-    percentiles over replicates); the share of taus where it does."""
+def curve_test(log_adev: np.ndarray, twin: np.ndarray,
+               shrinkage: float = COVARIANCE_SHRINKAGE) -> dict:
+    """A Monte Carlo test of the whole Allan curve of a log against a device's twins.
+
+    Parameters
+    ----------
+    log_adev : ndarray, shape (T,)
+        The log's Allan deviation at T averaging times, rad/s.
+    twin : ndarray, shape (R, T)
+        The same of R records of the device under the log's conditions.
+    shrinkage : float
+        Weight of the diagonal in the covariance (0 < shrinkage <= 1).
+
+    Returns
+    -------
+    dict
+        ``statistic``: the log's squared Mahalanobis distance from the twins (log Allan
+        deviations, covariance of the twins shrunk towards its diagonal); ``p_value``: its
+        rank, the share of the R + 1 curves (the log's included) whose distance from the
+        others is at least the log's; ``taus_used``: where every curve is positive and finite.
+
+    Notes
+    -----
+    Each of the R + 1 curves is measured against the other R in the same way, so under the
+    hypothesis that the log is a draw of the device the R + 1 distances are exchangeable and
+    ``P(p_value <= k / (R + 1)) = k / (R + 1)`` exactly.
+    """
+    X = np.vstack([np.asarray(log_adev, float)[None, :], np.asarray(twin, float)])
+    ok = np.all(np.isfinite(X) & (X > 0), axis=0)
+    if ok.sum() < 2 or X.shape[0] < 5:
+        raise ValueError("the whole-curve test needs at least 2 averaging times where every "
+                         "curve is positive and 4 twins")
+    X = np.log(X[:, ok])
+    n = X.shape[0]
+    stats = np.empty(n)
+    for i in range(n):
+        others = np.delete(X, i, axis=0)
+        d = X[i] - others.mean(axis=0)
+        S = np.atleast_2d(np.cov(others, rowvar=False))
+        S = (1.0 - shrinkage) * S + shrinkage * np.diag(np.diag(S))
+        stats[i] = float(d @ np.linalg.solve(S, d))
+    p = float(np.sum(stats >= stats[0]) / n)
+    return {"statistic": float(stats[0]), "p_value": p, "taus_used": ok,
+            "twin_statistics": stats[1:]}
+
+
+def check_device(curve, twin: np.ndarray, level: float = CHECK_LEVEL) -> dict:
+    """The log's Allan curve against the twins': the whole-curve test (:func:`curve_test`,
+    ``p_value``, ``agrees`` when p >= ``level``), and at each tau whether the log's interval
+    (``curve.low``, ``curve.high``) overlaps the twins' central band (the 2.5 and 97.5
+    percentiles over replicates), to show where they part."""
     lo, hi = np.percentile(twin, [2.5, 97.5], axis=0)
     agree = (curve.low <= hi) & (curve.high >= lo)
+    test = curve_test(curve.adev, twin)
     return {"band_low": lo, "band_high": hi, "median": np.median(twin, axis=0),
-            "agree": agree, "share": float(np.mean(agree))}
+            "agree": agree, "share": float(np.mean(agree)), "p_value": test["p_value"],
+            "statistic": test["statistic"], "level": level,
+            "agrees": test["p_value"] >= level}
 
 
 def _plot_check(tmp: str, title: str, curve, res: dict, interval: str, what: str = "log") -> None:
@@ -79,8 +144,9 @@ def _plot_check(tmp: str, title: str, curve, res: dict, interval: str, what: str
     ax.set_ylabel("Allan deviation, deg/h")
     rx.set_ylabel("/ twin median")
     rx.set_xlabel("averaging time tau, s")
-    ax.set_title(f"{title}\nagree within their intervals at {res['share']:.0%} of the "
-                 "averaging times")
+    verdict = "agrees" if res.get("agrees", True) else "DISAGREES"
+    ax.set_title(f"{title}\nwhole curve: p = {res['p_value']:.3g}, the {what} {verdict} with "
+                 f"the device; per tau: overlap at {res['share']:.0%} of the averaging times")
     ax.legend(fontsize=8)
     fig.savefig(tmp, format="png", dpi=110, bbox_inches="tight")
     plt.close(fig)

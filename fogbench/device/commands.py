@@ -15,6 +15,7 @@ import numpy as np
 
 from fogbench.device.check import (
     CHECK_CI,
+    COVARIANCE_SHRINKAGE,
     MAX_CHECK_REPLICATES,
     _is_check_json,
     _plot_check,
@@ -366,7 +367,7 @@ class CheckOptions(LogOptions):
     curve_ci: float | None = None
     samples: int | None = None
     axis: str | None = None
-    replicates: int = 20
+    replicates: int = 39
     seed: int = 0
     out: str | None = None
     overwrite: bool = False
@@ -378,9 +379,10 @@ def _check_check_flags(opts: CheckOptions) -> None:
 
     if not 0 <= opts.seed < 2**31:
         raise LogError(f"--seed: expected a whole number from 0 to 2^31 - 1, got {opts.seed}")
-    if not 5 <= opts.replicates <= MAX_CHECK_REPLICATES:
-        raise LogError(f"--replicates: expected 5 (the fewest for a 95 % band) to "
-                       f"{MAX_CHECK_REPLICATES}, got {opts.replicates}")
+    if not 19 <= opts.replicates <= MAX_CHECK_REPLICATES:
+        raise LogError(f"--replicates: expected 19 (the fewest for a test at the 5 % level: "
+                       f"p takes the values k / (replicates + 1)) to {MAX_CHECK_REPLICATES}, "
+                       f"got {opts.replicates}")
     try:
         load_device_file(opts.device)    # the device file first, before the log is read
     except ScenarioError as exc:
@@ -425,11 +427,17 @@ def _print_check(what: str, curve, res: dict) -> None:
     print(f"the {what}'s Allan deviation and the twin's agree within their intervals at "
           f"{res['share']:.0%} of the averaging times ({int(res['agree'].sum())} of "
           f"{res['agree'].size})")
+    print(f"whole-curve test (the {what}'s distance from the twins' curves, with their "
+          f"covariance, ranked among each twin's; exact at any record length): p = "
+          f"{res['p_value']:.3g}: the {what} "
+          + ("agrees with" if res["agrees"] else "DISAGREES with")
+          + f" the device at the {res['level']:.0%} level")
 
 
 def check(opts: CheckOptions) -> int:
     """``device check``: the device's twin at rest under the record's conditions, its Allan
-    curves beside the record's; prints the comparison, writes it with ``out``."""
+    curves beside the record's; prints the comparison and the whole-curve test, writes them
+    with ``out``. Returns 0 when the record agrees with the device, 1 when it does not."""
     from fogbench.console import Progress
 
     _check_check_flags(opts)
@@ -459,7 +467,12 @@ def check(opts: CheckOptions) -> int:
            "twin_median_dph": (res["median"] / DPH).tolist(),
            "twin_low_dph": (res["band_low"] / DPH).tolist(),
            "twin_high_dph": (res["band_high"] / DPH).tolist(),
-           "agree": [bool(x) for x in res["agree"]], "share_agree": res["share"]}
+           "agree": [bool(x) for x in res["agree"]], "share_agree": res["share"],
+           "test": "Monte Carlo rank of the squared Mahalanobis distance of the log Allan "
+                   "deviations from the twins' (covariance shrunk to its diagonal by "
+                   f"{COVARIANCE_SHRINKAGE:g})", "p_value": res["p_value"],
+           "statistic": res["statistic"], "level": res["level"],
+           "verdict": "agrees" if res["agrees"] else "disagrees"}
     _print_check(what, curve, res)
     if targets is not None:
         try:
@@ -471,4 +484,4 @@ def check(opts: CheckOptions) -> int:
         finally:
             out.discard()
         print(f"wrote {targets['device_check.json']} and {targets['device_check.png']}")
-    return 0
+    return 0 if res["agrees"] else 1

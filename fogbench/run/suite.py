@@ -10,7 +10,6 @@ import traceback
 from pathlib import Path
 
 from fogbench.console import Progress
-from fogbench.outputs.files import atomic_write_text
 from fogbench.outputs.folders import Claim, OutDirError, check_out_dir
 from fogbench.report import write_run_dir
 from fogbench.report.fmt import ci_text, fmt, md_table, p_better_text
@@ -268,6 +267,26 @@ def _summary_path(out: Path, partial: bool) -> Path:
     return readme
 
 
+def _write_summary(readme: Path, text: str) -> None:
+    """The summary put in place only over a summary of ours (checked again now: a file of
+    the user's saved there while the suite ran is left as it is, and the suite fails)."""
+    from fogbench.outputs.folders import Outputs
+
+    def ours(p: Path) -> bool:
+        try:
+            return p.read_text(errors="replace").splitlines()[:1] == [SUMMARY_TITLE]
+        except OSError:
+            return False
+
+    out = Outputs(True, "suite")
+    out.target(readme, recognise=ours, what="suite summary")
+    try:
+        out.write_text(readme, text)
+        out.commit()
+    finally:
+        out.discard()
+
+
 def _write_compare(out: Path, names: list[str]) -> Path | None:
     """``fogbench compare`` over this suite's run folders; a failure is said, not fatal (the
     summary is written either way)."""
@@ -434,7 +453,7 @@ def _suite_body(plans, chosen, first_file, results, out, readme, check, jobs, re
                     "every scenario on its headline metric, improvement over raw with its "
                     "paired interval over replicates, the oracle beside it, rank with its "
                     "probability, failures, in-sample flagged (`fogbench compare`).\n")
-    atomic_write_text(readme, summary)
+    _write_summary(readme, summary)
     print(f"fogbench suite: {sum(r['ok'] for r in results)}/{len(results)} scenario(s) ran in "
           f"{time.monotonic() - t0:.1f} s; summary in {readme}")
     for v in violations:

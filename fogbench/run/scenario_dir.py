@@ -141,6 +141,19 @@ def _run_replicates(mc, mapper, engine: Engine, name: str, opts: RunOptions) -> 
     return engine.label if pool_needed else "this process"
 
 
+def _kept(mc, mapper, name: str) -> str | None:
+    """What a failed or interrupted run leaves for ``--resume``: every work folder (the
+    scenario's, each claim-map point's) that holds replicates, named; None when none does."""
+    works = [mc.work] + ([m.work for m in mapper.mcs.values()] if mapper is not None else [])
+    held = [(w.path, len(list(w.path.glob("r*.json")))) for w in works if w.path.is_dir()]
+    held = [(p, k) for p, k in held if k]
+    if not held:
+        return None
+    where = "; ".join(f"{k} in {p}" for p, k in held)
+    return (f"replicates of {name} are kept ({where}); run again with --resume to go on, or "
+            "remove those folders")
+
+
 def run_scenario_dir(scenario: str, out: str | Path | None = None,
                      opts: RunOptions = RunOptions(), engine: Engine = Engine()) -> int:
     """Run ``scenario`` (a scenario file or a map file) into ``out`` (default
@@ -171,9 +184,8 @@ def run_scenario_dir(scenario: str, out: str | Path | None = None,
         if mapper is not None:
             mapper.release()
         mc.work.remove_if_empty()
-        if mc.work.path.is_dir() and mc.done:
-            kept = (f"{len(mc.done)} replicate(s) of {name} are kept in {mc.work.path}; run "
-                    "again with --resume to go on")
+        kept = _kept(mc, mapper, name)
+        if kept:
             if isinstance(exc, Exception):
                 exc.add_note(kept)  # printed after the error line: the last line says it
             else:

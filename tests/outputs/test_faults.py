@@ -707,8 +707,8 @@ def test_a_signal_at_any_moment_ends_with_the_one_line(tiny, tmp_path, sig, code
     kept = tmp_path / ".run.replicates"
     # before it, at most the line saying where finished replicates are kept
     assert lines[:-1] == ([] if not kept.exists() else
-                          [f"fogbench: 1 replicate(s) of tiny are kept in {kept}; run again with "
-                           "--resume to go on"]), err
+                          [f"fogbench: replicates of tiny are kept (1 in {kept}); run again "
+                           "with --resume to go on, or remove those folders"]), err
     assert not kept.exists() or len(list(kept.glob("r*.json"))) == 1
     assert not [p for p in tmp_path.iterdir() if p.name.endswith(".part")]
     assert not (tmp_path / "run").exists()

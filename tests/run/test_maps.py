@@ -470,3 +470,36 @@ def test_an_axis_the_claim_does_not_see_is_drawn_as_one_line_of_cells(tmp_path, 
     assert MR.fig_map(doc, 0, tmp_path / "m.png")
     assert len(kept[-1].axes[0].get_xticklabels()) == 3
     plt.close(kept[-1])
+
+
+def test_a_map_run_that_fails_on_a_write_names_every_folder_it_keeps(tmp_path, monkeypatch):
+    """A claim-map run whose run directory cannot be written: its last lines name the
+    scenario's work folder and each map point's, with the replicates each keeps."""
+    from helpers import SMALL_SCENARIO, run_cli
+
+    s = tmp_path / "s.toml"
+    s.write_text(SMALL_SCENARIO + """
+[montecarlo]
+replicates = 2
+[map]
+replicates = 2
+[[map.axes]]
+name = "noise"
+source = "test"
+key = "fog.arw_deg_rt_h"
+values = [0.06, 0.09]
+""")
+    from fogbench.run import scenario_dir
+
+    def full_disk(*a, **k):
+        raise OSError(28, "No space left on device", str(tmp_path / "run" / "metrics.json"))
+
+    monkeypatch.setattr("fogbench.report.write_run_dir", full_disk)
+    code, _, err = run_cli("run", s, "--out", tmp_path / "run", "--quiet", "--no-recording",
+                           "--no-figures", "--jobs", "1")
+    assert code == 1, err
+    last = err.strip().splitlines()[-1]
+    for folder in (".run.replicates", ".run.map0.replicates", ".run.map1.replicates"):
+        assert str(tmp_path / folder) in last, last
+        assert len(list((tmp_path / folder).glob("r*.json"))) >= 1
+    assert scenario_dir   # the module whose note this is

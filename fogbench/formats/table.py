@@ -420,17 +420,68 @@ def _timing(path, frame, time_col: tuple[str, str], first_line, fs, fs_is_fallba
     return fs_t, segments
 
 
+#: Sample rates of IMU and gyro logs (a FOG's thermal log at 1 Hz, a MEMS part at some kHz);
+#: a time column giving a rate outside them is warned of, with the time unit that would give a
+#: rate inside (the nanosecond, microsecond, millisecond and second confusions).
+USUAL_FS_HZ = (1.0, 20_000.0)
+
+
+def _unit_hint(fs: float, unit: str | None) -> str:
+    """The time unit under which the column's numbers would give a usual sample rate."""
+    if unit not in TIME_UNITS:
+        return ""
+    for other, factor in TIME_UNITS.items():
+        alt = fs * TIME_UNITS[unit] / factor
+        if other != unit and USUAL_FS_HZ[0] <= alt <= USUAL_FS_HZ[1]:
+            return (f"; if its times are in {other}, not {unit}, the rate is {alt:.6g} Hz: "
+                    f"name the column time_{other} (or map it with --column "
+                    f"time=HEADER:{other})")
+    return ""
+
+
 def _check_rate(path, fs: float, found: dict) -> None:
-    """A sample rate that is positive, and one outside gyro logs' range warned of."""
+    """A sample rate that is positive; one outside gyro logs' range refused (beyond what any
+    log could be) or warned of, saying the time unit that was assumed and the one that would
+    give a usual rate."""
     if not (math.isfinite(fs) and fs > 0):
         raise LogError(f"--fs: expected a positive sample rate in Hz, got {fmt_number(fs)}")
     lo, hi = PLAUSIBLE_FS_HZ
+    where = f"the time column {found['time'][0]!r}" if "time" in found else "--fs"
+    unit = found["time"][1] if "time" in found else None
     if not lo <= fs <= hi:
-        where = f"the time column {found['time'][0]!r}" if "time" in found else "--fs"
         warnings.warn(PlausibilityWarning(
             f"{path}: {where} gives a sample rate of {fs:.6g} Hz, outside the {lo:g} Hz to "
-            f"{hi / 1000:g} kHz of gyro logs: is the time unit in its name right (ms or us "
-            "written under _s, or s under _ms)?"))
+            f"{hi / 1000:g} kHz of gyro logs (its times read as {unit or 's'})"
+            + (_unit_hint(fs, unit) or ": is the time unit in its name right?")))
+    elif not USUAL_FS_HZ[0] <= fs <= USUAL_FS_HZ[1] and _unit_hint(fs, unit):
+        warnings.warn(PlausibilityWarning(
+            f"{path}: {where} gives a sample rate of {fs:.6g} Hz, unusual for an IMU or gyro "
+            f"log (its times read as {unit})" + _unit_hint(fs, unit)))
+
+
+#: EuRoC / TUM-VI's imu0/data.csv columns: a file with some of them has all seven.
+EUROC_COLUMNS = ("time", "gyro_x", "gyro_y", "gyro_z", "acc_x", "acc_y", "acc_z")
+
+
+def _check_euroc_columns(path, frame) -> None:
+    """A EuRoC-style header (``w_RS_S_x [rad s^-1]``, ...) holds its seven columns: one
+    missing is refused naming it (it ran on two axes without a word)."""
+    euroc = [c for c in frame.columns if re.match(r"^\s*[wa]_RS_S_[xyz]\s*\[", c)]
+    if not euroc:
+        return
+    have = {bracketed_column(c).rsplit("_", 1)[0] for c in frame.columns
+            if bracketed_column(c)}
+    missing = [c for c in EUROC_COLUMNS if c not in have]
+    if missing:
+        names = {"time": "timestamp [ns]", "gyro_x": "w_RS_S_x [rad s^-1]",
+                 "gyro_y": "w_RS_S_y [rad s^-1]", "gyro_z": "w_RS_S_z [rad s^-1]",
+                 "acc_x": "a_RS_S_x [m s^-2]", "acc_y": "a_RS_S_y [m s^-2]",
+                 "acc_z": "a_RS_S_z [m s^-2]"}
+        raise LogError(f"{path}: a EuRoC / TUM-VI header without "
+                       f"{', '.join(repr(names[c]) for c in missing)}: it has "
+                       f"{', '.join(frame.columns)}; a EuRoC imu0/data.csv has all seven "
+                       "columns (a damaged or cut file?); give the columns to read with "
+                       "--column if it is another format")
 
 
 def _read_any(path, fmt: str | None, topic: str | None):
@@ -445,6 +496,7 @@ def _read_any(path, fmt: str | None, topic: str | None):
             raise LogError(f"--topic {topic!r}: {path} is a CSV file; --topic chooses the IMU "
                            "topic of a ROS bag, MCAP or ULog file")
         frame, rows = read_frame(path)
+        _check_euroc_columns(path, frame)
         if kind == "euroc" and not any(bracketed_column(c) for c in frame.columns):
             raise LogError(f"{path}: --format euroc: its header is not EuRoC's (e.g. "
                            "'#timestamp [ns],w_RS_S_x [rad s^-1],...'); first line: "

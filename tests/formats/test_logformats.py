@@ -16,7 +16,7 @@ import pytest
 
 from fogbench.formats.table import read_log
 
-from helpers import run_parsed as run
+from helpers import run_cli, run_parsed as run
 
 FS = 200.0
 T0_NS = 1403636579758555392       # a EuRoC MH_01 stamp: 1.4e18 ns, past float64's exact range
@@ -728,3 +728,41 @@ def test_gzip_compressed_bags_are_refused_saying_to_gunzip(tmp_path, case):
     assert "\n" not in err
     assert {p: p.stat().st_mtime_ns for p in tmp_path.rglob("*")} == before
     assert main(["allan", str(path), *flags]) == 2
+
+
+# ---------------------------------------------------------------------------------------------
+# units that contradict the data: said before any work, with what was assumed and the way out
+def _imu_csv(path, header, times, cols=6, n=4000):
+    rng = np.random.default_rng(5)
+    data = rng.standard_normal((n, cols)) * 1e-3
+    path.write_text(header + "\n" + "".join(
+        f"{t}," + ",".join(f"{v:.6e}" for v in row) + "\n" for t, row in zip(times, data)))
+    return path
+
+
+def test_nanoseconds_under_a_microsecond_header_are_warned_of_with_the_unit_that_fits(tmp_path):
+    t = np.arange(4000, dtype=np.int64) * 5_000_000            # 200 Hz, in ns
+    p = _imu_csv(tmp_path / "data.csv", "#timestamp [us],w_RS_S_x [rad s^-1],w_RS_S_y "
+                 "[rad s^-1],w_RS_S_z [rad s^-1],a_RS_S_x [m s^-2],a_RS_S_y [m s^-2],a_RS_S_z "
+                 "[m s^-2]", t)
+    code, _, err = run_cli("allan", p)
+    assert code == 0
+    assert ("gives a sample rate of 0.2 Hz, unusual for an IMU or gyro log (its times read as "
+            "us); if its times are in ns, not us, the rate is 200 Hz") in err
+
+
+def test_milliseconds_under_time_s_are_warned_of(tmp_path):
+    p = _imu_csv(tmp_path / "log.csv", "time_s,gyro_x_dps", np.arange(4000) * 10.0, cols=1)
+    code, _, err = run_cli("allan", p)
+    assert code == 0
+    assert "if its times are in ms, not s, the rate is 100 Hz: name the column time_ms" in err
+
+
+def test_a_euroc_header_without_one_of_its_seven_columns_is_refused(tmp_path):
+    t = np.arange(4000, dtype=np.int64) * 5_000_000
+    p = _imu_csv(tmp_path / "data.csv", "#timestamp [ns],w_RS_S_x [rad s^-1],w_RS_S_y "
+                 "[rad s^-1],a_RS_S_x [m s^-2],a_RS_S_y [m s^-2],a_RS_S_z [m s^-2]", t, cols=5)
+    code, _, err = run_cli("allan", p, "--out", tmp_path / "a")
+    assert code == 2
+    assert "a EuRoC / TUM-VI header without 'w_RS_S_z [rad s^-1]'" in err
+    assert not (tmp_path / "a").exists()

@@ -99,7 +99,7 @@ def _bad(tmp_path, name):
                                                             (w[i, 0], w[i, 1], *a[i])])
                          for i in range(len(stamps))]
         p.write_text("\n".join(lines) + "\n")
-        return p, ["--columns", "gyro_z"], r"data\.csv: missing column for gyro_z"
+        return p, ["--columns", "gyro_z"], r"data\.csv: a EuRoC / TUM-VI header without .w_RS_S_z"
     if name == "time going back":
         stamps = stamps.copy()
         stamps[500] = stamps[498]
@@ -633,7 +633,8 @@ def test_a_misspelt_euroc_field_is_named_then_the_missing_column_refused(tmp_pat
     before = set(tmp_path.rglob("*"))
     code, err = run(["allan", p, "--columns", "gyro_z", "--out", tmp_path / "out"])
     assert code == 2 and "\n" not in err
-    assert re.search(r"data\.csv: missing column for gyro_z", err), err
+    assert re.search(r"data\.csv: a EuRoC / TUM-VI header without 'w_RS_S_z \[rad s\^-1\]'",
+                     err), err
     assert "data.csv: line 1: header field 'w_RS_S_zz [rad s^-1]' not known" in \
         capsys.readouterr().err
     assert set(tmp_path.rglob("*")) == before

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -102,6 +103,22 @@ def _check_series(series, path: Path) -> None:
                                    "edited or is damaged")
 
 
+def _check_checksum(doc: dict, path: Path) -> None:
+    """The run's own checksum (key ``sha256``, written with the file): a file whose numbers
+    were edited is refused naming it; one without a checksum (written before fogbench kept
+    one) is read with a warning."""
+    from fogbench.run.runner import metrics_sha256
+
+    if "sha256" not in doc:
+        print(f"fogbench: warning: {path}: no checksum (key 'sha256'; a run written before "
+              "fogbench kept one, or the key was removed): its numbers are compared as they "
+              "are", file=sys.stderr)
+    elif doc["sha256"] != metrics_sha256(doc):
+        raise CompareError(f"{path}: its content does not match its checksum (key 'sha256'): "
+                           "it was edited or damaged after fogbench wrote it; run the scenario "
+                           "again to compare it")
+
+
 def _read_metrics(d: Path) -> dict:
     """A run directory's ``metrics.json``, its shape checked where compare reads it: every
     error names the file and the key."""
@@ -113,6 +130,7 @@ def _read_metrics(d: Path) -> dict:
     if not isinstance(doc, dict):
         raise CompareError(f"{path}: expected a JSON object (a run directory's metrics), got "
                            f"{type(doc).__name__}")
+    _check_checksum(doc, path)
     prots = doc.get("protocols")
     if not isinstance(prots, dict) or not all(isinstance(v, dict) for v in prots.values()):
         raise CompareError(f"{path}: key 'protocols': expected a table of protocol tables; "

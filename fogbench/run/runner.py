@@ -599,5 +599,20 @@ def _metrics_doc(sc, plan, data, scored, fits, wall) -> dict:
     }
 
 
+def metrics_sha256(doc: dict) -> str:
+    """SHA-256 of a ``metrics.json`` document without its ``sha256`` key (canonical JSON:
+    sorted keys, no spaces), as :func:`write_metrics` records it and ``compare`` checks it."""
+    import hashlib
+
+    body = {k: v for k, v in doc.items() if k != "sha256"}
+    return hashlib.sha256(json.dumps(body, sort_keys=True, separators=(",", ":"))
+                          .encode()).hexdigest()
+
+
 def write_metrics(path: Path, doc: dict) -> None:
-    atomic_write_text(path, json.dumps(json_ready(doc), indent=2))
+    """``doc`` as ``metrics.json``, with its own checksum last (``sha256``, of the document as
+    read back), so an edited file is named by ``compare`` instead of compared."""
+    body = json.loads(json.dumps(json_ready(doc)))
+    body.pop("sha256", None)
+    body["sha256"] = metrics_sha256(body)
+    atomic_write_text(path, json.dumps(body, indent=2))

@@ -178,3 +178,35 @@ def test_a_failed_write_leaves_no_output_folder(tmp_path, monkeypatch):
     code, _, err = run_cli("compare", tmp_path / "rep" / "s1", "--out", tmp_path / "new" / "cmp")
     assert code == 1 and "No space left on device" in err
     assert not (tmp_path / "new").exists()
+
+
+def test_a_metrics_json_edited_after_it_was_written_is_named(tmp_path):
+    """A run directory's metrics.json carries its own checksum (written by the writer every
+    run uses): compared as written it is taken without a word; one value edited x100 is
+    refused naming the file; one without a checksum (an older run) is compared with a
+    warning."""
+    from fogbench.run.runner import write_metrics
+
+    d = tmp_path / "rep" / "s1"
+    d.mkdir(parents=True)
+    doc = {"scenario": "s1", "protocols": {"p": {"in_sample": False}},
+           "montecarlo": {"series": {"p": {"improvement_rmse_pct": {
+               "raw": [0.0, 0.0], "a": [10.0, 12.0], "b": [float("nan"), 3.5]}}},
+               "claims": []}}
+    write_metrics(d / "metrics.json", doc)
+    code, _, err = run_cli("compare", d, "--out", tmp_path / "ok")
+    assert code == 0 and "warning" not in err, err
+    text = (d / "metrics.json").read_text()
+    assert '"sha256"' in text and "12.0" in text
+    (d / "metrics.json").write_text(text.replace("12.0", "1200.0"))
+    before = _listing(tmp_path)
+    code, _, err = run_cli("compare", d, "--out", tmp_path / "cmp")
+    line = err.strip().splitlines()[-1]
+    assert code == 2 and line.startswith(f"fogbench: error: {d / 'metrics.json'}"), err
+    assert "does not match its checksum" in line
+    assert _listing(tmp_path) == before
+    edited = json.loads(text)
+    del edited["sha256"]
+    (d / "metrics.json").write_text(json.dumps(edited))
+    code, _, err = run_cli("compare", d, "--out", tmp_path / "old")
+    assert code == 0 and "no checksum (key 'sha256'" in err, err

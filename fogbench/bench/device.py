@@ -155,9 +155,9 @@ def check_power(seeds: int = 20, hours: float = 16.0, fs: float = 1.0, replicate
                 level: float = 0.05) -> dict:
     """``device check``'s whole-curve test on ``seeds`` logs of :data:`CHECK_DEVICE`, against
     each twin of :data:`CHECK_TWINS`: in how many seeds it finds the log and the twin
-    disagree (p < ``level``). Against the device itself that is the false-alarm rate (exactly
+    disagree (p <= ``level``). Against the device itself that is the false-alarm rate (exactly
     the level by construction, measured here); against a twin missing a term, the power."""
-    from fogbench.device.check import curve_test, twin_curves
+    from fogbench.device.twin import curve_test, twin_curves
     from fogbench.device.file import _device_from_values
     from sim.rig import load_presets
 
@@ -174,7 +174,7 @@ def check_power(seeds: int = 20, hours: float = 16.0, fs: float = 1.0, replicate
         for j, (name, model) in enumerate(models.items()):
             twins = twin_curves(model, fs, [(0, n)], taus, replicates,
                                 seed=10**7 + 10**5 * (len(models) * seed + j))
-            out[name] += int(curve_test(log, twins)["p_value"] < level)
+            out[name] += int(curve_test(log, twins)["p_value"] <= level)
     return out
 
 

@@ -30,7 +30,7 @@ What a fit determines (``fit_device``):
 
 from __future__ import annotations
 
-from fogbench.device.check import twin_curves, check_device
+from fogbench.device.twin import twin_curves, check_device
 from fogbench.device.commands import CheckOptions, FitOptions, ShowOptions, check, fit, show
 from fogbench.device.file import MARKER, preset_text, DeviceFit
 from fogbench.device.fit import fit_device

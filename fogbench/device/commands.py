@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fogbench.device.check import (
+from fogbench.device.twin import (
     CHECK_CI,
     COVARIANCE_SHRINKAGE,
     MAX_CHECK_REPLICATES,
@@ -427,8 +427,8 @@ def _print_check(what: str, curve, res: dict) -> None:
     print(f"the {what}'s Allan deviation and the twin's agree within their intervals at "
           f"{res['share']:.0%} of the averaging times ({int(res['agree'].sum())} of "
           f"{res['agree'].size})")
-    print(f"whole-curve test (the {what}'s distance from the twins' curves, with their "
-          f"covariance, ranked among each twin's; exact at any record length): p = "
+    print(f"whole-curve test (the {what}'s distance from the twins' curves, ranked among each "
+          f"twin's distance from the others; exact at any record length): p = "
           f"{res['p_value']:.3g}: the {what} "
           + ("agrees with" if res["agrees"] else "DISAGREES with")
           + f" the device at the {res['level']:.0%} level")
@@ -468,9 +468,10 @@ def check(opts: CheckOptions) -> int:
            "twin_low_dph": (res["band_low"] / DPH).tolist(),
            "twin_high_dph": (res["band_high"] / DPH).tolist(),
            "agree": [bool(x) for x in res["agree"]], "share_agree": res["share"],
-           "test": "Monte Carlo rank of the squared Mahalanobis distance of the log Allan "
-                   "deviations from the twins' (covariance shrunk to its diagonal by "
-                   f"{COVARIANCE_SHRINKAGE:g})", "p_value": res["p_value"],
+           "test": "Monte Carlo rank of the squared distance of the log Allan deviations from "
+                   "the twins', each averaging time weighted by the twins' variance (covariance "
+                   f"shrunk to its diagonal by {COVARIANCE_SHRINKAGE:g})",
+           "p_value": res["p_value"],
            "statistic": res["statistic"], "level": res["level"],
            "verdict": "agrees" if res["agrees"] else "disagrees"}
     _print_check(what, curve, res)

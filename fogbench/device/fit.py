@@ -270,7 +270,7 @@ def _thermal_entries(fit: DeviceFit, log, ci: float, bias_given: bool, model) ->
 
 
 def _multipos_entries(fit: DeviceFit, log, ci: float, model, full_scale) -> None:
-    from fogbench.device.multipos import TERMS, fit_multipos
+    from fogbench.device.multipos import SF_EXCITATION, TERMS, fit_multipos
 
     col = f", column {log.column}" if log.column else ""
     fit.inputs.append(f"multi-position log {log.name} ({log.rate.size} samples at {log.fs:g} Hz"
@@ -288,7 +288,11 @@ def _multipos_entries(fit: DeviceFit, log, ci: float, model, full_scale) -> None
         key, idx = target
         v = res[name]
         if idx is None:                               # a scalar key
-            if v is None:
+            if v is None and not res["scale_factor_excited"]:
+                fit.undetermined[key] = (f"not fitted: {log.name}'s reference rate stays within "
+                                         f"{SF_EXCITATION:g} Earth rates (the Earth rate alone "
+                                         "does not excite it); a rate-table log gives it")
+            elif v is None:
                 fit.undetermined[key] = f"not identifiable from {log.name} (its design)"
             elif key == "sf_nonlinearity_ppm" and full_scale is None:
                 fit.undetermined[key] = ("fitted but not stated: give --full-scale-dps (the "
@@ -317,9 +321,10 @@ def _multipos_entries(fit: DeviceFit, log, ci: float, model, full_scale) -> None
         fit.entries.append(Entry(key, val, lo, hi, src))
     if missing:
         fit.notes.append(f"{log.name}: not identifiable from its attitudes and rates: "
-                         f"{', '.join(missing)} (fx^2 + fy^2 + fz^2 = 1 g^2 in every static "
-                         "position: the squares and the constant separate only on a "
-                         "centrifuge; the cross terms need positions between the axes)")
+                         + "; ".join(_why_not(t, res["confounded"].get(t, []))
+                                     for t in missing if t not in ("scale factor",
+                                                                   "non-linearity")
+                                     or res["scale_factor_excited"]))
     if res["constant"] is not None:
         v, a, b = (x / DPH for x in res["constant"])
         fit.notes.append(f"the multi-position fit's constant (the bias in that power-on, with "
@@ -328,6 +333,17 @@ def _multipos_entries(fit: DeviceFit, log, ci: float, model, full_scale) -> None
     fit.notes.append(f"multi-position fit of {log.name}: generalised residual chi-square per "
                      f"degree of freedom {res['chi2_per_dof']:.3g} over {res['blocks']} "
                      "means (about 1 when the noise model and the g model explain the record)")
+
+
+def _why_not(term: str, partners: list[str]) -> str:
+    """Why a multi-position term is not identifiable: the columns it cannot be told apart from
+    in the log's design, or that the design does not excite it at all."""
+    if not partners:
+        return f"{term} (not excited: its column is zero in every position)"
+    squares = {"constant", "fx^2", "fy^2", "fz^2"}
+    why = (" (fx^2 + fy^2 + fz^2 = 1 g^2 in every static position: the squares and the "
+           "constant separate only on a centrifuge)" if {term, *partners} <= squares else "")
+    return f"{term} (confounded with {', '.join(partners)}{why})"
 
 
 def _all_fog_keys() -> list:

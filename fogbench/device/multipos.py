@@ -35,9 +35,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["MultiposLog", "TERMS", "design", "estimable", "fit_multipos", "lab_program"]
+__all__ = ["MultiposLog", "TERMS", "design", "estimable", "confounded", "fit_multipos",
+           "lab_program", "six_positions"]
 
 MAX_BLOCKS = 3000              # the fit works on at most 3000 block means (covariance m x m)
+#: The scale factor (and its non-linearity) is in the model only where the reference rate
+#: goes beyond this many Earth rates: excited by the Earth rate alone, a scale-factor error of
+#: even 1e4 ppm is 0.15 deg/h, and its column follows fx where the input axis is up and down
+#: (ref = +-Omega sin(latitude) exactly when fx = +-1), so it would take d1 away.
+SF_EXCITATION = 10.0
 RANK_TOL = 1e-3                # singular values below this (relative): the design's null space
 NULL_TOL = 1e-2                # a unit vector with more of its length in the null space: not
                                # estimable
@@ -99,6 +105,32 @@ def estimable(X: np.ndarray, tol: float = NULL_TOL) -> np.ndarray:
     return res
 
 
+_INDEX = {name: j for j, (name, _) in enumerate(TERMS)}
+
+
+def confounded(X: np.ndarray, tol: float = NULL_TOL) -> dict[str, list[str]]:
+    """Per term that is not estimable, the other terms of the model it cannot be told apart
+    from in this design: those sharing a direction of the null space with it (fx^2 with fy^2,
+    fz^2 and the constant at 1 g: fx^2 + fy^2 + fz^2 = 1 in every position). A column the
+    design leaves at zero (a term the program does not excite) has no partner."""
+    norms, used, s, vt = _basis(X)
+    rank = int(np.sum(s > RANK_TOL * s[0])) if s.size else 0
+    null = vt[rank:]
+    cols = np.flatnonzero(used)
+    out: dict[str, list[str]] = {}
+    for i, j in enumerate(cols):
+        partners = set()
+        for v in null:
+            if abs(v[i]) >= tol:
+                partners |= {TERMS[cols[q]][0] for q in np.flatnonzero(np.abs(v) >= tol)
+                             if q != i}
+        if partners:
+            out[TERMS[j][0]] = [t for t, _ in TERMS if t in partners]
+    for j in np.flatnonzero(~used):
+        out[TERMS[j][0]] = []
+    return out
+
+
 def _blocks(x: np.ndarray, k: int) -> np.ndarray:
     m = x.shape[0] // k
     return x[:m * k].reshape(m, k, *x.shape[1:]).mean(axis=1)
@@ -119,10 +151,16 @@ def fit_multipos(log: MultiposLog, noise, ci: float, full_scale: float | None = 
             and np.all(np.isfinite(log.f))):
         raise ValueError(f"{log.name}: the rate, the reference or the specific force holds NaN "
                          "or infinite values")
+    from sim.earth import EARTH_RATE
+
     k = max(1, math.ceil(log.rate.size / MAX_BLOCKS))
     X = _blocks(design(log.f, log.ref), k)
     y = _blocks(log.rate - log.ref, k)
     m = y.size
+    sf_excited = float(np.max(np.abs(log.ref))) > SF_EXCITATION * EARTH_RATE
+    if not sf_excited:       # the scale-factor columns out of the model (SF_EXCITATION)
+        X = X.copy()
+        X[:, [_INDEX["scale factor"], _INDEX["non-linearity"]]] = 0.0
     if m < 30:
         raise ValueError(f"{log.name}: {m} blocks; the multi-position fit needs at least 30 "
                          "samples")
@@ -152,7 +190,8 @@ def fit_multipos(log: MultiposLog, noise, ci: float, full_scale: float | None = 
     # the noise model's own scale: normal quantiles; scaled up by the residual: Student's t
     z = float(norm.ppf(0.5 + ci / 2)) if scale == 1.0 else float(student_t.ppf(0.5 + ci / 2,
                                                                                dof))
-    out: dict = {"chi2_per_dof": chi / dof, "block_s": k / log.fs, "blocks": m}
+    out: dict = {"chi2_per_dof": chi / dof, "block_s": k / log.fs, "blocks": m,
+                 "confounded": confounded(X), "scale_factor_excited": sf_excited}
     for j, (name, _) in enumerate(TERMS):
         out[name] = (beta[j], beta[j] - z * sd[j], beta[j] + z * sd[j]) if ok[j] else None
     if out["non-linearity"] is not None:
@@ -208,3 +247,13 @@ def lab_program(fs: float, hold_s: float = 60.0, rates_dps=(10.0, 50.0, 150.0, 2
     f = np.repeat(np.array([u for _, u, _, _ in parts]), n, axis=0)
     ref = np.repeat(np.array([w + vert * up for _, _, up, w in parts]), n)
     return f, ref, [p[0] for p in parts]
+
+
+def six_positions(fs: float, hold_s: float = 600.0,
+                  latitude_deg: float = 45.0) -> tuple[np.ndarray, np.ndarray, list]:
+    """The classic six-position test of a gyro whose input axis is x: each body axis up and
+    down at rest, ``hold_s`` each, as (f (n, 3) in g, ref (n,) rad/s, part names); the reference
+    is the Earth rate's vertical projection on x (the heading taken east-west for x level)."""
+    f, ref, names = lab_program(fs, hold_s=hold_s, rates_dps=(), latitude_deg=latitude_deg)
+    n = int(round(hold_s * fs))
+    return f[:6 * n], ref[:6 * n], names[:6]

@@ -664,7 +664,7 @@ def test_multipos_fit_from_the_command_line_writes_the_g_keys(tmp_path):
     text = dev.read_text()
     assert "g_sens_dph_per_g = [" in text and "g2_sens_dph_per_g2: default" in text
     assert "scale_factor_ppm: default" in text
-    assert "not identifiable from its attitudes and rates: constant, fx^2" in text
+    assert "not identifiable from its attitudes and rates: constant (confounded with fx^2" in text
 
 
 def test_the_json_schema_is_the_validators_own(tmp_path):
@@ -741,11 +741,12 @@ def test_the_whole_curve_test_is_exact_under_the_null_and_sees_a_missing_term():
     """curve_test on curves with a known law (correlated log-normal Allan deviations at 8
     averaging times, 39 twins): when the log is one more draw, p <= 0.05 in 5 % of 400 trials
     (within the binomial 99.9 % interval); when the log's curve has a term the twins lack (a
-    rise of 60 % at the longest three taus, 2.3 to 9 of their spread), p <= 0.05 in at least
-    90 %."""
+    doubling at the longest three taus, about 2.8 of their spread at each), p <= 0.05 in at
+    least 90 % (measured: 97 % of 300; a rise of 60 % is seen in 64 %, the diagonal statistic
+    giving up the correlation between averaging times, see COVARIANCE_SHRINKAGE)."""
     from scipy.stats import binom
 
-    from fogbench.device.check import curve_test
+    from fogbench.device.twin import curve_test
 
     rng = np.random.default_rng(11)
     T, R, trials = 8, 39, 400
@@ -757,6 +758,38 @@ def test_the_whole_curve_test_is_exact_under_the_null_and_sees_a_missing_term():
     rate = np.mean(np.array(null) <= 0.05)
     assert lo <= rate <= hi, rate
     rise = np.ones(T)
-    rise[-3:] = 1.6
+    rise[-3:] = 2.0
     alt = [curve_test(draw(1)[0] * rise, draw(R))["p_value"] for _ in range(100)]
     assert np.mean(np.array(alt) <= 0.05) >= 0.9
+
+
+def test_a_six_position_test_recovers_d1(tmp_path):
+    """The classic six-position test (each axis up and down, 10 min each) of paper 004's gyro
+    (d1 = 7.352 deg/h/g, paper 004 Table 1, plus its switch-on draw): d1 comes back within its
+    interval (the scale-factor columns, excited by the Earth rate alone, took it away: the
+    reference is +-Omega sin(latitude) exactly where fx = +-1); the scale factor is said not
+    fitted for that reason, and the squares' note names what they are confounded with."""
+    from fogbench.device.fit import StaticLog
+    from fogbench.device.multipos import MultiposLog, six_positions
+    from fogbench.scenario.device_file import _fog
+    from fogbench.scenario.tables import _Table
+    from sim.fog import simulate_fog
+
+    fs = 10.0
+    preset, *_ = _fog(_Table({"preset": "paper004_gyro"}, "[fog]", "t"), fs)
+    f, ref, _ = six_positions(fs)
+    w = np.zeros((ref.size, 3))
+    w[:, 0] = ref
+    out = simulate_fog(preset, fs, w, f, axes=("x",), seed=4)
+    d1 = float(out.draws["g_sens"][0][0]) / DPH
+    rest = np.zeros((int(2 * 3600 * fs), 3))
+    static = StaticLog("rest", simulate_fog(preset, fs, rest, rest, axes=("x",),
+                                            seed=5).raw[:, 0], fs)
+    fit = fit_device([static], multipos=MultiposLog("six", out.raw[:, 0], ref, f, fs))
+    e = fit.entry("g_sens_dph_per_g")
+    assert e is not None and e.low[0] is not None, fit.undetermined
+    assert e.low[0] <= d1 <= e.high[0], (d1, e.value[0], e.low[0], e.high[0])
+    assert "reference rate stays within" in fit.undetermined["scale_factor_ppm"]
+    note = next(n for n in fit.notes if "not identifiable from its attitudes" in n)
+    assert "fx^2 (confounded with constant, fy^2, fz^2" in note
+    assert "fx fy (not excited" in note

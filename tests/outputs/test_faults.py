@@ -742,7 +742,7 @@ def test_a_log_beyond_any_sensor_is_refused_and_nothing_written(tmp_path):
 
 
 @pytest.mark.parametrize("header, scale, words", [
-    ("time_ms,gyro_x_dps", 1.0, ["'time_ms'", "100000 Hz", "time unit"]),   # seconds under _ms
+    ("time_ms,gyro_x_dps", 1.0, ["'time_ms'", "100000 Hz", "time_s"]),   # seconds under _ms
     ("time_s,gyro_x_rps", 1.0, ["'gyro_x_rps'", "deg/s", "'rps' right"]),   # deg/s under _rps
 ])
 def test_units_the_values_contradict_are_warned(tmp_path, header, scale, words):

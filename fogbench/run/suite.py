@@ -149,100 +149,127 @@ def claim_verdicts(plan, doc) -> list[str]:
     return out
 
 
+#: The summary's opening: what it is, where its numbers come from and how to read them.
+_SUMMARY_INTRO = (
+    "Written by `fogbench suite` (`make run`); the scenario reports it links "
+    "(`<scenario>/report.md`, figures, `metrics.json`, `recording.rrd`) are written beside "
+    "it by the same command.", "",
+    "Each scenario's methods were fitted on some runs and scored on others against the "
+    "simulation's truth (see each report for the protocol), over R replicates (power-ons "
+    "and method starts drawn anew). Values: mean [95 % t-interval of the mean] over "
+    "replicates of the mean over a protocol's scored runs. Rows `raw` (the FOG output) and "
+    "`oracle` (raw minus the true deterministic error terms) bracket what compensation of "
+    "those terms can do. Units are in the metric names (`_dps` deg/s, `_dph` deg/h, `_deg` "
+    "deg, `_pct` percent improvement over raw). In-sample protocols (a paper's own, scored "
+    "on fitted data) are flagged.", "")
+
+
+def _protocol_lines(pname: str, pd: dict, mc: dict | None) -> list[str]:
+    """One protocol's table of key metrics (mean [interval] over replicates, or the one draw)."""
+    flag = " (IN-SAMPLE, the paper's protocol)" if pd["in_sample"] else " (held out)"
+    L = [f"**Protocol `{pname}`{flag}**, scored on {', '.join(pd['runs'])}:", ""]
+    if mc:
+        po = mc["over_runs"].get(pname, {})
+        metrics = [m for m in SUMMARY_METRICS if m != "fit_time_s" and any(
+            m in po.get(lab, {}) for lab in po)]
+        rows = [[lab] + [ci_text(po[lab].get(m), m) for m in metrics] for lab in po]
+    else:
+        labels = []
+        for by_method in pd["runs"].values():
+            for lab in by_method:
+                if lab not in labels:
+                    labels.append(lab)
+        metrics = [m for m in SUMMARY_METRICS if m != "fit_time_s" and any(
+            isinstance(_mean_over_runs(pd, lab, m), float) for lab in labels)]
+        rows = [[lab] + [fmt(_mean_over_runs(pd, lab, m), m) for m in metrics]
+                for lab in labels]
+    return L + [md_table(["method"] + metrics, rows), ""]
+
+
+def _claim_line(c: dict) -> str:
+    """One claim's verdict over replicates, with its interval, the oracle's and the starts'."""
+    lo = "" if c["min_pct"] is None else f"{c['min_pct']:g}"
+    hi = "" if c["max_pct"] is None else f"{c['max_pct']:g}"
+    tag = " (in-sample)" if c["in_sample"] else ""
+    held = "–" if c["held"] is None else f"{100 * c['held']:.0f} %"
+    return (f"- {c['source']}: \"{c['text']}\" — `{c['protocol']}`{tag}: "
+            f"{c['better']} vs {c['than']} on {c['metric']}: "
+            f"{ci_text(c['summary'], '_pct')} % (claim {lo}..{hi} %): "
+            f"**{c['verdict']}**"
+            + (f" ({side(c)} the claim)" if side(c) else "")
+            + f" (held in {held} of replicates; oracle "
+            f"{ci_text(c['oracle_improvement'], '_pct')} %"
+            + ("" if c["oracle_bounds_claim"] else ", not a bound for a filter")
+            + (" (the filter oracle)" if c.get("oracle") == "oracle_filter"
+               else "")
+            + ")" + _start_text(c) + ".")
+
+
+def _map_lines(name: str, mp: dict) -> list[str]:
+    """The claim maps of a scenario: each claim's sentence over the map's points."""
+    L = [f"Claim maps ({', '.join(a['name'] for a in mp['axes'])}; "
+         f"{mp['replicates_per_point']} replicates per point):", ""]
+    for c in mp["claims"]:
+        tag = " (in-sample)" if c["in_sample"] else ""
+        L.append(f"- \"{c['text']}\" — `{c['protocol']}`{tag}: {c['sentence']}.")
+    if not mp["claims"]:
+        L.append(f"- no claims to map; the metrics at every point: "
+                 f"[its report]({name}/report.md#metrics-at-every-point).")
+    L.append("")
+    return L
+
+
+def _ranking_lines(rankings: list[dict]) -> list[str]:
+    """How often the replicates order the methods as the paper's table does."""
+    L = ["Rankings against the paper's table:", ""]
+    for rk in rankings:
+        top = rk["orderings"][0] if rk["orderings"] else None
+        L.append(f"- `{rk['protocol']}`, {rk['run']}, {rk['metric']}: the paper's "
+                 f"order {' < '.join(rk['paper_order'])} in "
+                 f"{100 * rk['p_paper_order']:.0f} % of replicates"
+                 + (f"; most frequent {top['ordering']} "
+                    f"({100 * top['probability']:.0f} %)" if top else "") + ".")
+    L.append("")
+    return L
+
+
+def _scenario_lines(r: dict, plans: dict) -> list[str]:
+    """One scenario's section: its tables, claims, maps, rankings and notes (or its failure)."""
+    name = r["name"]
+    if not r["ok"]:
+        return [f"## {name}: FAILED", "", "```", r["error"], "```", ""]
+    doc, plan = r["metrics"], plans[name]
+    mc = doc.get("montecarlo")
+    R = mc["replicates"] if mc else 1
+    L = [f"## [{name}]({name}/report.md)", "", doc["description"], "",
+         f"{R} replicate(s)" + (f", {mc['method_seeds']} method seed(s) per fit"
+                                if mc and mc["method_seeds"] > 1 else "") + ".", ""]
+    for pname, pd in doc["protocols"].items():
+        L += _protocol_lines(pname, pd, mc)
+    if mc:
+        if mc["claims"]:
+            L += ["Claims:", ""] + [_claim_line(c) for c in mc["claims"]] + [""]
+        if doc.get("map"):
+            L += _map_lines(name, doc["map"])
+        if mc["rankings"]:
+            L += _ranking_lines(mc["rankings"])
+    else:
+        verdicts = claim_verdicts(plan, doc)
+        if verdicts:
+            L += ["Claims (one replicate: no interval):", ""] + [f"- {v}" for v in verdicts]
+            L.append("")
+    for note in plan.notes:
+        L += [f"> {note}", ""]
+    return L
+
+
 def summary_markdown(results: list[dict], plans: dict, out: Path, violations: list[str]) -> str:
     """The suite's summary: per scenario and protocol, every method's key metrics as mean and
     interval over replicates, the claims' verdicts and the rankings. Nothing in it depends on
     the machine or the day (no dates, no wall times), so a re-run leaves it unchanged."""
-    L = [SUMMARY_TITLE, "",
-         "Written by `fogbench suite` (`make run`); the scenario reports it links "
-         "(`<scenario>/report.md`, figures, `metrics.json`, `recording.rrd`) are written beside "
-         "it by the same command.", "",
-         "Each scenario's methods were fitted on some runs and scored on others against the "
-         "simulation's truth (see each report for the protocol), over R replicates (power-ons "
-         "and method starts drawn anew). Values: mean [95 % t-interval of the mean] over "
-         "replicates of the mean over a protocol's scored runs. Rows `raw` (the FOG output) and "
-         "`oracle` (raw minus the true deterministic error terms) bracket what compensation of "
-         "those terms can do. Units are in the metric names (`_dps` deg/s, `_dph` deg/h, `_deg` "
-         "deg, `_pct` percent improvement over raw). In-sample protocols (a paper's own, scored "
-         "on fitted data) are flagged.", ""]
+    L = [SUMMARY_TITLE, "", *_SUMMARY_INTRO]
     for r in sorted(results, key=lambda r: r["name"]):
-        name = r["name"]
-        if not r["ok"]:
-            L += [f"## {name}: FAILED", "", "```", r["error"], "```", ""]
-            continue
-        doc, plan = r["metrics"], plans[name]
-        mc = doc.get("montecarlo")
-        R = mc["replicates"] if mc else 1
-        L += [f"## [{name}]({name}/report.md)", "", doc["description"], "",
-              f"{R} replicate(s)" + (f", {mc['method_seeds']} method seed(s) per fit"
-                                     if mc and mc["method_seeds"] > 1 else "") + ".", ""]
-        for pname, pd in doc["protocols"].items():
-            flag = " (IN-SAMPLE, the paper's protocol)" if pd["in_sample"] else " (held out)"
-            L += [f"**Protocol `{pname}`{flag}**, scored on {', '.join(pd['runs'])}:", ""]
-            if mc:
-                po = mc["over_runs"].get(pname, {})
-                metrics = [m for m in SUMMARY_METRICS if m != "fit_time_s" and any(
-                    m in po.get(lab, {}) for lab in po)]
-                rows = [[lab] + [ci_text(po[lab].get(m), m) for m in metrics] for lab in po]
-            else:
-                labels = []
-                for by_method in pd["runs"].values():
-                    for lab in by_method:
-                        if lab not in labels:
-                            labels.append(lab)
-                metrics = [m for m in SUMMARY_METRICS if m != "fit_time_s" and any(
-                    isinstance(_mean_over_runs(pd, lab, m), float) for lab in labels)]
-                rows = [[lab] + [fmt(_mean_over_runs(pd, lab, m), m) for m in metrics]
-                        for lab in labels]
-            L += [md_table(["method"] + metrics, rows), ""]
-        if mc:
-            if mc["claims"]:
-                L += ["Claims:", ""]
-                for c in mc["claims"]:
-                    lo = "" if c["min_pct"] is None else f"{c['min_pct']:g}"
-                    hi = "" if c["max_pct"] is None else f"{c['max_pct']:g}"
-                    tag = " (in-sample)" if c["in_sample"] else ""
-                    held = "–" if c["held"] is None else f"{100 * c['held']:.0f} %"
-                    L.append(f"- {c['source']}: \"{c['text']}\" — `{c['protocol']}`{tag}: "
-                             f"{c['better']} vs {c['than']} on {c['metric']}: "
-                             f"{ci_text(c['summary'], '_pct')} % (claim {lo}..{hi} %): "
-                             f"**{c['verdict']}**"
-                             + (f" ({side(c)} the claim)" if side(c) else "")
-                             + f" (held in {held} of replicates; oracle "
-                             f"{ci_text(c['oracle_improvement'], '_pct')} %"
-                             + ("" if c["oracle_bounds_claim"] else ", not a bound for a filter")
-                             + (" (the filter oracle)" if c.get("oracle") == "oracle_filter"
-                                else "")
-                             + ")" + _start_text(c) + ".")
-                L.append("")
-            if doc.get("map"):
-                mp = doc["map"]
-                L += [f"Claim maps ({', '.join(a['name'] for a in mp['axes'])}; "
-                      f"{mp['replicates_per_point']} replicates per point):", ""]
-                for c in mp["claims"]:
-                    tag = " (in-sample)" if c["in_sample"] else ""
-                    L.append(f"- \"{c['text']}\" — `{c['protocol']}`{tag}: {c['sentence']}.")
-                if not mp["claims"]:
-                    L.append(f"- no claims to map; the metrics at every point: "
-                             f"[its report]({name}/report.md#metrics-at-every-point).")
-                L.append("")
-            if mc["rankings"]:
-                L += ["Rankings against the paper's table:", ""]
-                for rk in mc["rankings"]:
-                    top = rk["orderings"][0] if rk["orderings"] else None
-                    L.append(f"- `{rk['protocol']}`, {rk['run']}, {rk['metric']}: the paper's "
-                             f"order {' < '.join(rk['paper_order'])} in "
-                             f"{100 * rk['p_paper_order']:.0f} % of replicates"
-                             + (f"; most frequent {top['ordering']} "
-                                f"({100 * top['probability']:.0f} %)" if top else "") + ".")
-                L.append("")
-        else:
-            verdicts = claim_verdicts(plan, doc)
-            if verdicts:
-                L += ["Claims (one replicate: no interval):", ""] + [f"- {v}" for v in verdicts]
-                L.append("")
-        for note in plan.notes:
-            L += [f"> {note}", ""]
+        L += _scenario_lines(r, plans)
     L += ["## Bounds check", ""]
     L += (["Every declared bound holds."] if not violations else
           ["Outside bounds:", ""] + [f"- {v}" for v in violations])

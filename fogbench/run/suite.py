@@ -399,42 +399,63 @@ def run_suite(scenario_dir: Path, out: Path, check: bool = False, jobs: int | No
             claim.remove()      # nothing was written: no empty folder left behind
 
 
-def _suite_body(plans, chosen, first_file, results, out, readme, check, jobs, recording,
-                quiet, replicates, method_seeds, scheduler, cluster, cluster_options,
-                resume, no_map, map_replicates, figures=True) -> int:
-    t0 = time.monotonic()
+def _open_mc(p: str, run_dir: Path, replicates, method_seeds, resume: bool) -> ScenarioMC:
+    """A scenario's replicates, resumed when asked (with nothing left over: started afresh)."""
+    try:
+        return ScenarioMC(p, run_dir, replicates=replicates, method_seeds=method_seeds,
+                          resume=resume)
+    except MonteCarloError as exc:
+        if not (resume and "nothing to resume" in str(exc)):
+            raise
+        # --resume on a suite: a scenario with nothing left over starts afresh
+        return ScenarioMC(p, run_dir, replicates=replicates, method_seeds=method_seeds,
+                          resume=False)
+
+
+def _open_map(p: str, run_dir: Path, mc: ScenarioMC, map_replicates, method_seeds,
+              resume: bool):
+    """A scenario's claim map, resumed when asked (with nothing left over: started afresh)."""
+    from fogbench.run.maps import MapRun
+
+    try:
+        return MapRun(p, run_dir, mc, replicates=map_replicates, method_seeds=method_seeds,
+                      resume=resume)
+    except MonteCarloError as exc:
+        if not (resume and "nothing to resume" in str(exc)):
+            raise
+        return MapRun(p, run_dir, mc, replicates=map_replicates, method_seeds=method_seeds)
+
+
+def _open_scenarios(chosen, first_file, out, results, replicates, method_seeds, resume,
+                    no_map, map_replicates) -> tuple[dict, dict]:
+    """(name -> ScenarioMC, name -> MapRun) of the chosen files; one refused is a failed result."""
     mcs: dict = {}
     maps: dict = {}
     for p in chosen:
         name = next(n for n, f in first_file.items() if str(f) == p)
         try:
-            try:
-                mcs[name] = ScenarioMC(p, Path(out) / name, replicates=replicates,
-                                       method_seeds=method_seeds, resume=resume)
-            except MonteCarloError as exc:
-                if not (resume and "nothing to resume" in str(exc)):
-                    raise
-                # --resume on a suite: a scenario with nothing left over starts afresh
-                mcs[name] = ScenarioMC(p, Path(out) / name, replicates=replicates,
-                                       method_seeds=method_seeds, resume=False)
+            mcs[name] = _open_mc(p, Path(out) / name, replicates, method_seeds, resume)
             if mcs[name].plan.map is not None and not no_map:
-                from fogbench.run.maps import MapRun
-
-                try:
-                    maps[name] = MapRun(p, Path(out) / name, mcs[name],
-                                        replicates=map_replicates, method_seeds=method_seeds,
-                                        resume=resume)
-                except MonteCarloError as exc:
-                    if not (resume and "nothing to resume" in str(exc)):
-                        raise
-                    maps[name] = MapRun(p, Path(out) / name, mcs[name],
-                                        replicates=map_replicates, method_seeds=method_seeds)
+                maps[name] = _open_map(p, Path(out) / name, mcs[name], map_replicates,
+                                       method_seeds, resume)
         except (MonteCarloError, OutDirError) as exc:
             if name in mcs:
                 mcs.pop(name).work.remove_if_empty()
             results.append({"path": p, "name": name, "ok": False, "wall_s": 0.0,
                             "error": str(exc)})
             print(f"fogbench: {name} is not run: {exc}", file=sys.stderr)
+    return mcs, maps
+
+
+def _say_kept(kept: dict) -> None:
+    """Name the scenarios whose stored replicates a --resume would go on from."""
+    print(f"fogbench: replicates kept for {', '.join(f'{n} ({k})' for n, k in kept.items())}"
+          "; run the suite again with --resume to go on", file=sys.stderr)
+
+
+def _run_scenarios(mcs: dict, maps: dict, out, results: list, jobs, scheduler, cluster,
+                   cluster_options, recording: bool, quiet: bool, figures: bool) -> None:
+    """Every replicate and map point on one executor; empty work folders go, maps released."""
     total = sum(len(m.todo) + 1 for m in mcs.values()) + sum(m.todo for m in maps.values())
     if not quiet:
         print(f"fogbench suite: {len(mcs)} scenario(s), "
@@ -451,8 +472,7 @@ def _suite_body(plans, chosen, first_file, results, out, readme, check, jobs, re
     except BaseException:
         kept = {n: len(m.done) for n, m in mcs.items() if m.done}
         if kept:
-            print(f"fogbench: replicates kept for {', '.join(f'{n} ({k})' for n, k in kept.items())}"
-                  "; run the suite again with --resume to go on", file=sys.stderr)
+            _say_kept(kept)
         for m in mcs.values():
             m.work.remove_if_empty()
         for m in maps.values():
@@ -462,6 +482,10 @@ def _suite_body(plans, chosen, first_file, results, out, readme, check, jobs, re
         m.work.remove_if_empty()
     for m in maps.values():
         m.release()
+
+
+def _violations(results: list, plans: dict) -> list[str]:
+    """Every bound left, every replicate that failed as a whole, every scenario that failed."""
     violations = []
     for r in results:
         if r["ok"]:
@@ -472,6 +496,11 @@ def _suite_body(plans, chosen, first_file, results, out, readme, check, jobs, re
                                   f"(first: r{f[0]['replicate']}: {f[0]['error']})")
         else:
             violations.append(f"{r['name']}: scenario failed: {r['error']}")
+    return violations
+
+
+def _summary_text(results: list, plans: dict, out, violations: list[str]) -> str:
+    """The summary, and below it a link to the cross-scenario comparison (written here)."""
     summary = summary_markdown(results, plans, out, violations)
     compared = _write_compare(out, [r["name"] for r in results if r["ok"]])
     if compared:
@@ -480,7 +509,20 @@ def _suite_body(plans, chosen, first_file, results, out, readme, check, jobs, re
                     "every scenario on its headline metric, improvement over raw with its "
                     "paired interval over replicates, the oracle beside it, rank with its "
                     "probability, failures, in-sample flagged (`fogbench compare`).\n")
-    _write_summary(readme, summary)
+    return summary
+
+
+def _suite_body(plans, chosen, first_file, results, out, readme, check, jobs, recording,
+                quiet, replicates, method_seeds, scheduler, cluster, cluster_options,
+                resume, no_map, map_replicates, figures=True) -> int:
+    """The suite once its outputs are checked and its folder claimed: run, summarise, check."""
+    t0 = time.monotonic()
+    mcs, maps = _open_scenarios(chosen, first_file, out, results, replicates, method_seeds,
+                                resume, no_map, map_replicates)
+    _run_scenarios(mcs, maps, out, results, jobs, scheduler, cluster, cluster_options,
+                   recording, quiet, figures)
+    violations = _violations(results, plans)
+    _write_summary(readme, _summary_text(results, plans, out, violations))
     print(f"fogbench suite: {sum(r['ok'] for r in results)}/{len(results)} scenario(s) ran in "
           f"{time.monotonic() - t0:.1f} s; summary in {readme}")
     for v in violations:
@@ -489,8 +531,7 @@ def _suite_body(plans, chosen, first_file, results, out, readme, check, jobs, re
             if m.work.path.is_dir()}
     kept = {n: k for n, k in kept.items() if k}
     if kept:  # a scenario that failed after its replicates were stored: the last line says so
-        print(f"fogbench: replicates kept for {', '.join(f'{n} ({k})' for n, k in kept.items())}"
-              "; run the suite again with --resume to go on", file=sys.stderr)
+        _say_kept(kept)
     if check and violations:
         return 1
     return 0 if all(r["ok"] and not r.get("replicate_failures") for r in results) else 1

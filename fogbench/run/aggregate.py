@@ -158,58 +158,75 @@ LAB_COST_METRICS = ("mean_error_dph", "rmse_dph", "drift_rms_dph", "coef_rms_err
 _SIGNED = ("mean_error_dph",)
 
 
-def aggregate(docs: list[dict], sc, plan) -> dict:
-    """The replicate distributions of every metric, claim and ranking (see the module doc)."""
-    import fogcomp
-
-    docs = sorted(docs, key=lambda d: d["replicate"])
-    summary: dict = {}
-    over_runs: dict = {}
-    seed_spread: dict = {}
-    runs_of: dict = {}
+def _labels(docs: list[dict], plan) -> list[str]:
+    """The rows of every table: raw, the oracle(s) (the filter's when computed), the methods."""
     labels = ["raw", "oracle"] + [m.label for m in plan.methods]
     if any("oracle_filter" in by for d in docs for p in d["protocols"].values()
            for by in p.get("runs", {}).values()):
         labels.insert(2, "oracle_filter")
-    for prot in plan.protocols:
-        runs: list[str] = []
-        for d in docs:
-            for r in d["protocols"].get(prot.name, {}).get("runs", {}):
-                if r not in runs:
-                    runs.append(r)
-        runs_of[prot.name] = runs
-        metrics: dict[str, set] = {lab: set() for lab in labels}
-        for d in docs:
-            for r in runs:
-                for lab, m in d["protocols"].get(prot.name, {}).get("runs", {}).get(r, {}).items():
-                    if isinstance(m, dict) and lab in metrics:
-                        metrics[lab] |= {k for k, v in m.items()
-                                         if _is_num(v) and k not in TIMING_METRICS}
-        ps = summary.setdefault(prot.name, {})
-        po = over_runs.setdefault(prot.name, {})
-        for lab in labels:
-            for metric in sorted(metrics[lab]):
-                # a metric some runs cannot have (drift needs dwells, Allan terms long records)
-                # is "not computed" there, not failed: those runs are left out of its summary
-                have = [r for r in runs if _computed(docs, prot.name, r, lab, metric)]
-                for r in have:
-                    ps.setdefault(r, {}).setdefault(lab, {})[metric] = \
-                        S.summarize(_series(docs, prot.name, r, lab, metric)).as_dict()
-                if have:
-                    po.setdefault(lab, {})[metric] = \
-                        S.summarize(_over_runs(docs, prot.name, have, lab, metric)).as_dict()
-                    if len(have) < len(runs):   # a mean over fewer runs than the others'
-                        po[lab][metric]["runs"] = list(have)
-        # spread over method seeds inside a replicate (paper 002's question)
-        for d in docs:
-            for r, by_label in d["protocols"].get(prot.name, {}).get("seeds", {}).items():
-                for lab, ms in by_label.items():
-                    for metric in metrics.get(lab, ()):
-                        vals = [m[metric] for m in ms if isinstance(m, dict) and
-                                _is_num(m.get(metric))]
-                        if len(vals) > 1:
-                            seed_spread.setdefault(prot.name, {}).setdefault(r, {}).setdefault(
-                                lab, {}).setdefault(metric, []).append(float(np.std(vals, ddof=1)))
+    return labels
+
+
+def _scored_runs(docs: list[dict], prot: str) -> list[str]:
+    """The runs a protocol scored in any replicate, in the order they first appear."""
+    runs: list[str] = []
+    for d in docs:
+        for r in d["protocols"].get(prot, {}).get("runs", {}):
+            if r not in runs:
+                runs.append(r)
+    return runs
+
+
+def _metric_names(docs: list[dict], prot: str, runs: list[str],
+                  labels: list[str]) -> dict[str, set]:
+    """Per label, every numeric metric some replicate has on some run (timings left out)."""
+    metrics: dict[str, set] = {lab: set() for lab in labels}
+    for d in docs:
+        for r in runs:
+            for lab, m in d["protocols"].get(prot, {}).get("runs", {}).get(r, {}).items():
+                if isinstance(m, dict) and lab in metrics:
+                    metrics[lab] |= {k for k, v in m.items()
+                                     if _is_num(v) and k not in TIMING_METRICS}
+    return metrics
+
+
+def _protocol_summaries(docs: list[dict], prot: str, runs: list[str], labels: list[str],
+                        metrics: dict[str, set]) -> tuple[dict, dict]:
+    """One protocol's summaries: per run, and of the mean over its scored runs."""
+    ps: dict = {}
+    po: dict = {}
+    for lab in labels:
+        for metric in sorted(metrics[lab]):
+            # a metric some runs cannot have (drift needs dwells, Allan terms long records)
+            # is "not computed" there, not failed: those runs are left out of its summary
+            have = [r for r in runs if _computed(docs, prot, r, lab, metric)]
+            for r in have:
+                ps.setdefault(r, {}).setdefault(lab, {})[metric] = \
+                    S.summarize(_series(docs, prot, r, lab, metric)).as_dict()
+            if have:
+                po.setdefault(lab, {})[metric] = \
+                    S.summarize(_over_runs(docs, prot, have, lab, metric)).as_dict()
+                if len(have) < len(runs):   # a mean over fewer runs than the others'
+                    po[lab][metric]["runs"] = list(have)
+    return ps, po
+
+
+def _add_seed_spread(seed_spread: dict, docs: list[dict], prot: str,
+                     metrics: dict[str, set]) -> None:
+    """Add each replicate's sd over method seeds to ``seed_spread`` (paper 002's question)."""
+    for d in docs:
+        for r, by_label in d["protocols"].get(prot, {}).get("seeds", {}).items():
+            for lab, ms in by_label.items():
+                for metric in metrics.get(lab, ()):
+                    vals = [m[metric] for m in ms if isinstance(m, dict) and
+                            _is_num(m.get(metric))]
+                    if len(vals) > 1:
+                        seed_spread.setdefault(prot, {}).setdefault(r, {}).setdefault(
+                            lab, {}).setdefault(metric, []).append(float(np.std(vals, ddof=1)))
+
+
+def _finish_seed_spread(seed_spread: dict) -> None:
+    """Replace each list of per-replicate seed sds by its mean and count, in place."""
     for prot in seed_spread.values():
         for by_label in prot.values():
             for by_metric in by_label.values():
@@ -217,7 +234,9 @@ def aggregate(docs: list[dict], sc, plan) -> dict:
                     by_metric[metric] = {"mean_std_over_seeds": float(np.mean(sds)),
                                          "replicates": len(sds)}
 
-    # every start of a seeded method (K > 1), per replicate: its mean over the scored runs
+
+def _start_series(docs: list[dict], plan, labels: list[str], runs_of: dict) -> dict:
+    """Every start of a seeded method (K > 1), per replicate: its mean over the scored runs."""
     start_series: dict = {}
     for prot in plan.protocols:
         for metric in SERIES_METRICS:
@@ -228,7 +247,12 @@ def aggregate(docs: list[dict], sc, plan) -> dict:
                         any(np.isfinite(v).any() for v in vals):
                     start_series.setdefault(prot.name, {}).setdefault(metric, {})[lab] = \
                         [[None if not math.isfinite(x) else float(x) for x in v] for v in vals]
+    return start_series
 
+
+def _replicate_series(docs: list[dict], plan, labels: list[str], runs_of: dict,
+                      over_runs: dict) -> dict:
+    """Per replicate, each summarised ``SERIES_METRICS`` as its mean over the scored runs."""
     series: dict = {}
     for prot in plan.protocols:
         for metric in SERIES_METRICS:
@@ -237,58 +261,81 @@ def aggregate(docs: list[dict], sc, plan) -> dict:
                     vals = _over_runs(docs, prot.name, runs_of[prot.name], lab, metric)
                     series.setdefault(prot.name, {}).setdefault(metric, {})[lab] = \
                         [None if not math.isfinite(v) else float(v) for v in vals]
+    return series
 
+
+def _claim_oracle(c, plan, labels: list[str]) -> tuple[bool, str]:
+    """(whether the oracle bounds the claim, which oracle row) for a claim's method."""
+    import fogcomp
+
+    better_cls = None
+    spec = next((m for m in plan.methods if m.label == c.better), None)
+    if spec is not None:
+        better_cls = fogcomp.get_method(spec.name)
+    # the oracle removes the true deterministic error terms: a floor for a model of those
+    # terms (a supervised method); for a filter, which also removes noise, the floor is the
+    # filter oracle (the best estimate given the true noise model, where the true rate is
+    # constant: fogbench.run.runner.oracle_filter)
+    oracle_bounds = better_cls is not None and better_cls.supervised
+    oracle_label = "oracle"
+    if better_cls is not None and not better_cls.supervised and \
+            "oracle_filter" in labels:
+        oracle_bounds, oracle_label = True, "oracle_filter"
+    return oracle_bounds, oracle_label
+
+
+def _claim_on_protocol(docs: list[dict], c, prot, runs: list[str], oracle_bounds: bool,
+                       oracle_label: str) -> dict | None:
+    """One claim judged on one protocol's replicates; None: the comparator has no value."""
+    a, b = (_over_runs(docs, prot.name, runs, lab, c.metric)
+            for lab in (c.better, c.than))
+    vals = _improvement(a, b)
+    if np.all(np.isnan(vals)) and not any(
+            _is_num(d["protocols"].get(prot.name, {}).get("runs", {}).get(runs[0], {})
+                    .get(c.than, {}).get(c.metric)) for d in docs):
+        return None
+    o = _over_runs(docs, prot.name, runs, oracle_label, c.metric)
+    ovals = _improvement(o, b)
+    v = S.claim_verdict(vals, c.min_pct, c.max_pct,
+                        oracle=ovals if oracle_bounds else None, better="higher")
+    pair = S.paired_difference(a, b, better="higher" if c.metric.endswith("_pct")
+                               else "lower")
+    return {"text": c.text, "source": c.source, "protocol": prot.name,
+            "in_sample": prot.in_sample, "metric": c.metric, "better": c.better,
+            "than": c.than, "runs": runs, "min_pct": c.min_pct,
+            "max_pct": c.max_pct, **v.as_dict(),
+            "oracle_improvement": S.summarize(ovals).as_dict(),
+            "oracle_bounds_claim": oracle_bounds, "oracle": oracle_label,
+            "paired": pair.as_dict(),
+            # oracle minus comparator, in the metric's unit (the claim figure)
+            "oracle_paired": S.paired_difference(
+                o, b, better=pair.better).as_dict(),
+            "per_replicate": _claim_values(docs, a, b, o, vals, ovals),
+            "over_seeds": _over_seeds(docs, prot.name, runs, c.better, c.than,
+                                      c.metric)}
+
+
+def _claims(docs: list[dict], plan, labels: list[str], runs_of: dict) -> list[dict]:
+    """Every claim of the plan judged on every protocol that scored its run(s)."""
     claims = []
     for c in plan.claims:
         if c.better not in labels or c.than not in labels:
             continue  # a method left out of this run (--method)
-        better_cls = None
-        spec = next((m for m in plan.methods if m.label == c.better), None)
-        if spec is not None:
-            better_cls = fogcomp.get_method(spec.name)
-        # the oracle removes the true deterministic error terms: a floor for a model of those
-        # terms (a supervised method); for a filter, which also removes noise, the floor is the
-        # filter oracle (the best estimate given the true noise model, where the true rate is
-        # constant: fogbench.run.runner.oracle_filter)
-        oracle_bounds = better_cls is not None and better_cls.supervised
-        oracle_label = "oracle"
-        if better_cls is not None and not better_cls.supervised and \
-                "oracle_filter" in labels:
-            oracle_bounds, oracle_label = True, "oracle_filter"
+        oracle_bounds, oracle_label = _claim_oracle(c, plan, labels)
         for prot in plan.protocols:
             runs = [r for r in runs_of[prot.name] if c.run is None or r == c.run]
             if not runs:
                 continue
-            a, b = (_over_runs(docs, prot.name, runs, lab, c.metric)
-                    for lab in (c.better, c.than))
-            vals = _improvement(a, b)
-            if np.all(np.isnan(vals)) and not any(
-                    _is_num(d["protocols"].get(prot.name, {}).get("runs", {}).get(runs[0], {})
-                            .get(c.than, {}).get(c.metric)) for d in docs):
-                continue
-            o = _over_runs(docs, prot.name, runs, oracle_label, c.metric)
-            ovals = _improvement(o, b)
-            v = S.claim_verdict(vals, c.min_pct, c.max_pct,
-                                oracle=ovals if oracle_bounds else None, better="higher")
-            pair = S.paired_difference(a, b, better="higher" if c.metric.endswith("_pct")
-                                       else "lower")
-            claims.append({"text": c.text, "source": c.source, "protocol": prot.name,
-                           "in_sample": prot.in_sample, "metric": c.metric, "better": c.better,
-                           "than": c.than, "runs": runs, "min_pct": c.min_pct,
-                           "max_pct": c.max_pct, **v.as_dict(),
-                           "oracle_improvement": S.summarize(ovals).as_dict(),
-                           "oracle_bounds_claim": oracle_bounds, "oracle": oracle_label,
-                           "paired": pair.as_dict(),
-                           # oracle minus comparator, in the metric's unit (the claim figure)
-                           "oracle_paired": S.paired_difference(
-                               o, b, better=pair.better).as_dict(),
-                           "per_replicate": _claim_values(docs, a, b, o, vals, ovals),
-                           "over_seeds": _over_seeds(docs, prot.name, runs, c.better, c.than,
-                                                     c.metric)})
+            claim = _claim_on_protocol(docs, c, prot, runs, oracle_bounds, oracle_label)
+            if claim is not None:
+                claims.append(claim)
+    return claims
 
-    # what the lab's references cost each method: its metric fitted on the lab's references
-    # minus fitted on the truth (the ideal-lab twin protocol), replicate by replicate (the same
-    # power-ons and the same random starts in both)
+
+def _lab_cost(docs: list[dict], plan, runs_of: dict, over_runs: dict) -> list[dict]:
+    """What the lab's references cost each method (lab minus ideal-lab twin, paired)."""
+    # its metric fitted on the lab's references minus fitted on the truth (the ideal-lab twin
+    # protocol), replicate by replicate (the same power-ons and the same random starts in both)
     lab_cost = []
     for prot in plan.protocols:
         if prot.twin_of is None or prot.twin_of not in runs_of:
@@ -313,7 +360,11 @@ def aggregate(docs: list[dict], sc, plan) -> dict:
                                  "method": m.label, "metric": metric, "runs": have,
                                  "lab": S.summarize(a).as_dict(),
                                  "truth": S.summarize(b).as_dict(), "paired": pair})
+    return lab_cost
 
+
+def _rankings(docs: list[dict], plan, runs_of: dict) -> list[dict]:
+    """How often the replicates order the methods as each table of the paper does."""
     rankings = []
     groups: dict = {}
     for pv in plan.paper:
@@ -337,6 +388,29 @@ def aggregate(docs: list[dict], sc, plan) -> dict:
                     "paper_order": paper_order,
                     "p_paper_order": S.ordering_probability(vals, paper_order, better=better),
                     "orderings": [o.as_dict() for o in orders]})
+    return rankings
+
+
+def aggregate(docs: list[dict], sc, plan) -> dict:
+    """The replicate distributions of every metric, claim and ranking (see the module doc)."""
+    docs = sorted(docs, key=lambda d: d["replicate"])
+    summary: dict = {}
+    over_runs: dict = {}
+    seed_spread: dict = {}
+    runs_of: dict = {}
+    labels = _labels(docs, plan)
+    for prot in plan.protocols:
+        runs_of[prot.name] = runs = _scored_runs(docs, prot.name)
+        metrics = _metric_names(docs, prot.name, runs, labels)
+        summary[prot.name], over_runs[prot.name] = _protocol_summaries(
+            docs, prot.name, runs, labels, metrics)
+        _add_seed_spread(seed_spread, docs, prot.name, metrics)
+    _finish_seed_spread(seed_spread)
+    start_series = _start_series(docs, plan, labels, runs_of)
+    series = _replicate_series(docs, plan, labels, runs_of, over_runs)
+    claims = _claims(docs, plan, labels, runs_of)
+    lab_cost = _lab_cost(docs, plan, runs_of, over_runs)
+    rankings = _rankings(docs, plan, runs_of)
     return {"replicates": len(docs), "summary": summary, "over_runs": over_runs,
             "seed_spread": seed_spread, "claims": claims, "rankings": rankings,
             "lab_cost": lab_cost,

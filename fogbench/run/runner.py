@@ -236,6 +236,98 @@ def _ident_record(model) -> dict | None:
     return rec
 
 
+def _only_methods(sc, plan, methods: list[str] | None):
+    """The plan with only the methods labelled in ``methods`` (all of them when none is named)."""
+    if methods:
+        unknown = sorted(set(methods) - {m.label for m in plan.methods})
+        if unknown:
+            raise ValueError(f"{sc.path}: no method labelled {unknown}; methods: "
+                             f"{[m.label for m in plan.methods]}")
+        plan = replace(plan, methods=tuple(m for m in plan.methods if m.label in methods))
+    return plan
+
+
+def _simulate_runs(sc, plan, replicate: int, truths: dict, say) -> tuple[dict, dict]:
+    """(run -> RunData, run -> seed) of one replicate; the table motion cached in ``truths``."""
+    data, seeds = {}, {}
+    for i, run in enumerate(sc.runs):
+        cached = truths.get(run.name)
+        say(f"simulate {run.name} ({i + 1}/{len(sc.runs)}, {run.duration:g} s)"
+            + (f", replicate {replicate}" if replicate else "")
+            + (" (table motion reused)" if cached is not None else ""))
+        seeds[run.name] = run_seed(sc, plan, replicate, i)
+        data[run.name] = simulate_run(sc.rig, run, seed=seeds[run.name], truth=cached)
+        truths[run.name] = data[run.name].truth
+    return data, seeds
+
+
+def _lab_references(sc, plan, data: dict, seeds: dict) -> dict:
+    """The lab's references of every run, once (empty unless a protocol has reference = "lab")."""
+    if not any(p.reference == "lab" for p in plan.protocols):
+        return {}
+    from sim.lab import LabKnowledge, lab_reference
+
+    # (an accelerometer triad, gravity_source = "accelerometer", draws its noise from the
+    # run's own seed, sim.lab.accelerometer_reading)
+    return {name: lab_reference(rd.truth, sc.table, plan.lab or LabKnowledge(),
+                                seed=seeds[name])
+            for name, rd in data.items()}
+
+
+def _score_references(items: list[Scored], sc) -> None:
+    """Score raw, the oracle and (where it is computed) the filter oracle on every piece."""
+    for it in items:
+        it.outputs["raw"] = it.piece.raw
+        it.outputs["oracle"] = it.piece.oracle
+        it.metrics["raw"] = score(it.piece.raw, it.piece)
+        it.metrics["oracle"] = score(it.piece.oracle, it.piece, it.metrics["raw"])
+        of = oracle_filter(it.piece, sc.fog, sc.fs)
+        if of is not None:
+            it.metrics["oracle_filter"] = score(of, it.piece, it.metrics["raw"])
+
+
+def _score_fit(model, rec: dict, items: list[Scored], label: str, first: bool,
+               per_seed: bool, data: dict, axis_j: int, timeout_s: float | None) -> None:
+    """Score one fit on every piece (the first fit's are the method's; with K > 1, each kept)."""
+    for it in items:
+        m, out = _score_model(model, rec, it, data[it.run], axis_j, timeout_s)
+        if first:
+            it.metrics[label] = m
+            if out is not None:
+                it.outputs[label] = out
+        if per_seed:
+            it.seed_metrics.setdefault(label, []).append(m)
+
+
+def _run_protocol(prot, sc, plan, data: dict, axis_j: int, lab_refs: dict, replicate: int,
+                  method_seeds: int, say) -> tuple[list[Scored], dict]:
+    """One protocol: (its scored pieces, label -> fit records) over its (fit, score) pairings."""
+    scored: list[Scored] = []
+    fits: dict = {m.label: [] for m in plan.methods}
+    for fit_sel, score_sel in expand(prot, sc):
+        fit_piece = concat([make_piece(data[s.run], s, prot, axis_j, lab_refs.get(s.run))
+                            for s in fit_sel])
+        pieces = [make_piece(data[s.run], s, prot, axis_j, lab_refs.get(s.run))
+                  for s in score_sel]
+        items = [Scored(prot.name, p.run, p) for p in pieces]
+        _score_references(items, sc)
+        for ms in plan.methods:
+            say(f"{prot.name}: fit {ms.label} on {', '.join(s.describe() for s in fit_sel)}")
+            seeded = ms.failed is None and fogcomp.get_method(ms.name).random and \
+                ms.params.get("random_state") is None
+            for k in range(method_seeds if seeded else 1):
+                seed = method_seed(sc, plan, prot, ms, fit_sel, replicate, k) if seeded \
+                    else None
+                rec, model = _fit(ms, seed, fit_piece, fit_sel, score_sel,
+                                  plan.fit_timeout_s)
+                _score_fit(model, rec, items, ms.label, k == 0, seeded and method_seeds > 1,
+                           data, axis_j, plan.fit_timeout_s)
+                if k == 0:
+                    fits[ms.label].append(rec)
+        scored.extend(items)
+    return scored, fits
+
+
 def run_scenario(path, progress=None, methods: list[str] | None = None, replicate: int = 0,
                  method_seeds: int = 1, truths: dict | None = None,
                  overrides: dict | None = None) -> ScenarioResult:
@@ -253,74 +345,17 @@ def run_scenario(path, progress=None, methods: list[str] | None = None, replicat
     t_start = time.monotonic()
     say = progress or (lambda msg: None)
     sc = load_scenario(path, extra_sections=RUNNER_SECTIONS, overrides=overrides)
-    plan = load_plan(sc)
-    if methods:
-        unknown = sorted(set(methods) - {m.label for m in plan.methods})
-        if unknown:
-            raise ValueError(f"{sc.path}: no method labelled {unknown}; methods: "
-                             f"{[m.label for m in plan.methods]}")
-        plan = replace(plan, methods=tuple(m for m in plan.methods if m.label in methods))
+    plan = _only_methods(sc, load_plan(sc), methods)
     axis_j = sc.axes.index(plan.axis)
     truths = {} if truths is None else truths
-    data, seeds = {}, {}
-    for i, run in enumerate(sc.runs):
-        cached = truths.get(run.name)
-        say(f"simulate {run.name} ({i + 1}/{len(sc.runs)}, {run.duration:g} s)"
-            + (f", replicate {replicate}" if replicate else "")
-            + (" (table motion reused)" if cached is not None else ""))
-        seeds[run.name] = run_seed(sc, plan, replicate, i)
-        data[run.name] = simulate_run(sc.rig, run, seed=seeds[run.name], truth=cached)
-        truths[run.name] = data[run.name].truth
-
-    # the lab's references of every run, once (protocols with reference = "lab")
-    lab_refs = {}
-    if any(p.reference == "lab" for p in plan.protocols):
-        from sim.lab import LabKnowledge, lab_reference
-
-        # (an accelerometer triad, gravity_source = "accelerometer", draws its noise from the
-        # run's own seed, sim.lab.accelerometer_reading)
-        lab_refs = {name: lab_reference(rd.truth, sc.table, plan.lab or LabKnowledge(),
-                                        seed=seeds[name])
-                    for name, rd in data.items()}
+    data, seeds = _simulate_runs(sc, plan, replicate, truths, say)
+    lab_refs = _lab_references(sc, plan, data, seeds)
     scored: list[Scored] = []
     fits: dict = {}
     for prot in plan.protocols:
-        fits[prot.name] = {m.label: [] for m in plan.methods}
-        for fit_sel, score_sel in expand(prot, sc):
-            fit_piece = concat([make_piece(data[s.run], s, prot, axis_j, lab_refs.get(s.run))
-                                for s in fit_sel])
-            pieces = [make_piece(data[s.run], s, prot, axis_j, lab_refs.get(s.run))
-                      for s in score_sel]
-            items = [Scored(prot.name, p.run, p) for p in pieces]
-            for it in items:
-                it.outputs["raw"] = it.piece.raw
-                it.outputs["oracle"] = it.piece.oracle
-                it.metrics["raw"] = score(it.piece.raw, it.piece)
-                it.metrics["oracle"] = score(it.piece.oracle, it.piece, it.metrics["raw"])
-                of = oracle_filter(it.piece, sc.fog, sc.fs)
-                if of is not None:
-                    it.metrics["oracle_filter"] = score(of, it.piece, it.metrics["raw"])
-            for ms in plan.methods:
-                say(f"{prot.name}: fit {ms.label} on {', '.join(s.describe() for s in fit_sel)}")
-                seeded = ms.failed is None and fogcomp.get_method(ms.name).random and \
-                    ms.params.get("random_state") is None
-                for k in range(method_seeds if seeded else 1):
-                    seed = method_seed(sc, plan, prot, ms, fit_sel, replicate, k) if seeded \
-                        else None
-                    rec, model = _fit(ms, seed, fit_piece, fit_sel, score_sel,
-                                      plan.fit_timeout_s)
-                    for it in items:
-                        m, out = _score_model(model, rec, it, data[it.run], axis_j,
-                                              plan.fit_timeout_s)
-                        if k == 0:
-                            it.metrics[ms.label] = m
-                            if out is not None:
-                                it.outputs[ms.label] = out
-                        if seeded and method_seeds > 1:
-                            it.seed_metrics.setdefault(ms.label, []).append(m)
-                    if k == 0:
-                        fits[prot.name][ms.label].append(rec)
-            scored.extend(items)
+        prot_scored, fits[prot.name] = _run_protocol(prot, sc, plan, data, axis_j, lab_refs,
+                                                     replicate, method_seeds, say)
+        scored.extend(prot_scored)
 
     metrics = _metrics_doc(sc, plan, data, scored, fits, time.monotonic() - t_start)
     metrics["replicate"] = replicate

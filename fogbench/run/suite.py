@@ -149,100 +149,127 @@ def claim_verdicts(plan, doc) -> list[str]:
     return out
 
 
+#: The summary's opening: what it is, where its numbers come from and how to read them.
+_SUMMARY_INTRO = (
+    "Written by `fogbench suite` (`make run`); the scenario reports it links "
+    "(`<scenario>/report.md`, figures, `metrics.json`, `recording.rrd`) are written beside "
+    "it by the same command.", "",
+    "Each scenario's methods were fitted on some runs and scored on others against the "
+    "simulation's truth (see each report for the protocol), over R replicates (power-ons "
+    "and method starts drawn anew). Values: mean [95 % t-interval of the mean] over "
+    "replicates of the mean over a protocol's scored runs. Rows `raw` (the FOG output) and "
+    "`oracle` (raw minus the true deterministic error terms) bracket what compensation of "
+    "those terms can do. Units are in the metric names (`_dps` deg/s, `_dph` deg/h, `_deg` "
+    "deg, `_pct` percent improvement over raw). In-sample protocols (a paper's own, scored "
+    "on fitted data) are flagged.", "")
+
+
+def _protocol_lines(pname: str, pd: dict, mc: dict | None) -> list[str]:
+    """One protocol's table of key metrics (mean [interval] over replicates, or the one draw)."""
+    flag = " (IN-SAMPLE, the paper's protocol)" if pd["in_sample"] else " (held out)"
+    L = [f"**Protocol `{pname}`{flag}**, scored on {', '.join(pd['runs'])}:", ""]
+    if mc:
+        po = mc["over_runs"].get(pname, {})
+        metrics = [m for m in SUMMARY_METRICS if m != "fit_time_s" and any(
+            m in po.get(lab, {}) for lab in po)]
+        rows = [[lab] + [ci_text(po[lab].get(m), m) for m in metrics] for lab in po]
+    else:
+        labels = []
+        for by_method in pd["runs"].values():
+            for lab in by_method:
+                if lab not in labels:
+                    labels.append(lab)
+        metrics = [m for m in SUMMARY_METRICS if m != "fit_time_s" and any(
+            isinstance(_mean_over_runs(pd, lab, m), float) for lab in labels)]
+        rows = [[lab] + [fmt(_mean_over_runs(pd, lab, m), m) for m in metrics]
+                for lab in labels]
+    return L + [md_table(["method"] + metrics, rows), ""]
+
+
+def _claim_line(c: dict) -> str:
+    """One claim's verdict over replicates, with its interval, the oracle's and the starts'."""
+    lo = "" if c["min_pct"] is None else f"{c['min_pct']:g}"
+    hi = "" if c["max_pct"] is None else f"{c['max_pct']:g}"
+    tag = " (in-sample)" if c["in_sample"] else ""
+    held = "–" if c["held"] is None else f"{100 * c['held']:.0f} %"
+    return (f"- {c['source']}: \"{c['text']}\" — `{c['protocol']}`{tag}: "
+            f"{c['better']} vs {c['than']} on {c['metric']}: "
+            f"{ci_text(c['summary'], '_pct')} % (claim {lo}..{hi} %): "
+            f"**{c['verdict']}**"
+            + (f" ({side(c)} the claim)" if side(c) else "")
+            + f" (held in {held} of replicates; oracle "
+            f"{ci_text(c['oracle_improvement'], '_pct')} %"
+            + ("" if c["oracle_bounds_claim"] else ", not a bound for a filter")
+            + (" (the filter oracle)" if c.get("oracle") == "oracle_filter"
+               else "")
+            + ")" + _start_text(c) + ".")
+
+
+def _map_lines(name: str, mp: dict) -> list[str]:
+    """The claim maps of a scenario: each claim's sentence over the map's points."""
+    L = [f"Claim maps ({', '.join(a['name'] for a in mp['axes'])}; "
+         f"{mp['replicates_per_point']} replicates per point):", ""]
+    for c in mp["claims"]:
+        tag = " (in-sample)" if c["in_sample"] else ""
+        L.append(f"- \"{c['text']}\" — `{c['protocol']}`{tag}: {c['sentence']}.")
+    if not mp["claims"]:
+        L.append(f"- no claims to map; the metrics at every point: "
+                 f"[its report]({name}/report.md#metrics-at-every-point).")
+    L.append("")
+    return L
+
+
+def _ranking_lines(rankings: list[dict]) -> list[str]:
+    """How often the replicates order the methods as the paper's table does."""
+    L = ["Rankings against the paper's table:", ""]
+    for rk in rankings:
+        top = rk["orderings"][0] if rk["orderings"] else None
+        L.append(f"- `{rk['protocol']}`, {rk['run']}, {rk['metric']}: the paper's "
+                 f"order {' < '.join(rk['paper_order'])} in "
+                 f"{100 * rk['p_paper_order']:.0f} % of replicates"
+                 + (f"; most frequent {top['ordering']} "
+                    f"({100 * top['probability']:.0f} %)" if top else "") + ".")
+    L.append("")
+    return L
+
+
+def _scenario_lines(r: dict, plans: dict) -> list[str]:
+    """One scenario's section: its tables, claims, maps, rankings and notes (or its failure)."""
+    name = r["name"]
+    if not r["ok"]:
+        return [f"## {name}: FAILED", "", "```", r["error"], "```", ""]
+    doc, plan = r["metrics"], plans[name]
+    mc = doc.get("montecarlo")
+    R = mc["replicates"] if mc else 1
+    L = [f"## [{name}]({name}/report.md)", "", doc["description"], "",
+         f"{R} replicate(s)" + (f", {mc['method_seeds']} method seed(s) per fit"
+                                if mc and mc["method_seeds"] > 1 else "") + ".", ""]
+    for pname, pd in doc["protocols"].items():
+        L += _protocol_lines(pname, pd, mc)
+    if mc:
+        if mc["claims"]:
+            L += ["Claims:", ""] + [_claim_line(c) for c in mc["claims"]] + [""]
+        if doc.get("map"):
+            L += _map_lines(name, doc["map"])
+        if mc["rankings"]:
+            L += _ranking_lines(mc["rankings"])
+    else:
+        verdicts = claim_verdicts(plan, doc)
+        if verdicts:
+            L += ["Claims (one replicate: no interval):", ""] + [f"- {v}" for v in verdicts]
+            L.append("")
+    for note in plan.notes:
+        L += [f"> {note}", ""]
+    return L
+
+
 def summary_markdown(results: list[dict], plans: dict, out: Path, violations: list[str]) -> str:
     """The suite's summary: per scenario and protocol, every method's key metrics as mean and
     interval over replicates, the claims' verdicts and the rankings. Nothing in it depends on
     the machine or the day (no dates, no wall times), so a re-run leaves it unchanged."""
-    L = [SUMMARY_TITLE, "",
-         "Written by `fogbench suite` (`make run`); the scenario reports it links "
-         "(`<scenario>/report.md`, figures, `metrics.json`, `recording.rrd`) are written beside "
-         "it by the same command.", "",
-         "Each scenario's methods were fitted on some runs and scored on others against the "
-         "simulation's truth (see each report for the protocol), over R replicates (power-ons "
-         "and method starts drawn anew). Values: mean [95 % t-interval of the mean] over "
-         "replicates of the mean over a protocol's scored runs. Rows `raw` (the FOG output) and "
-         "`oracle` (raw minus the true deterministic error terms) bracket what compensation of "
-         "those terms can do. Units are in the metric names (`_dps` deg/s, `_dph` deg/h, `_deg` "
-         "deg, `_pct` percent improvement over raw). In-sample protocols (a paper's own, scored "
-         "on fitted data) are flagged.", ""]
+    L = [SUMMARY_TITLE, "", *_SUMMARY_INTRO]
     for r in sorted(results, key=lambda r: r["name"]):
-        name = r["name"]
-        if not r["ok"]:
-            L += [f"## {name}: FAILED", "", "```", r["error"], "```", ""]
-            continue
-        doc, plan = r["metrics"], plans[name]
-        mc = doc.get("montecarlo")
-        R = mc["replicates"] if mc else 1
-        L += [f"## [{name}]({name}/report.md)", "", doc["description"], "",
-              f"{R} replicate(s)" + (f", {mc['method_seeds']} method seed(s) per fit"
-                                     if mc and mc["method_seeds"] > 1 else "") + ".", ""]
-        for pname, pd in doc["protocols"].items():
-            flag = " (IN-SAMPLE, the paper's protocol)" if pd["in_sample"] else " (held out)"
-            L += [f"**Protocol `{pname}`{flag}**, scored on {', '.join(pd['runs'])}:", ""]
-            if mc:
-                po = mc["over_runs"].get(pname, {})
-                metrics = [m for m in SUMMARY_METRICS if m != "fit_time_s" and any(
-                    m in po.get(lab, {}) for lab in po)]
-                rows = [[lab] + [ci_text(po[lab].get(m), m) for m in metrics] for lab in po]
-            else:
-                labels = []
-                for by_method in pd["runs"].values():
-                    for lab in by_method:
-                        if lab not in labels:
-                            labels.append(lab)
-                metrics = [m for m in SUMMARY_METRICS if m != "fit_time_s" and any(
-                    isinstance(_mean_over_runs(pd, lab, m), float) for lab in labels)]
-                rows = [[lab] + [fmt(_mean_over_runs(pd, lab, m), m) for m in metrics]
-                        for lab in labels]
-            L += [md_table(["method"] + metrics, rows), ""]
-        if mc:
-            if mc["claims"]:
-                L += ["Claims:", ""]
-                for c in mc["claims"]:
-                    lo = "" if c["min_pct"] is None else f"{c['min_pct']:g}"
-                    hi = "" if c["max_pct"] is None else f"{c['max_pct']:g}"
-                    tag = " (in-sample)" if c["in_sample"] else ""
-                    held = "–" if c["held"] is None else f"{100 * c['held']:.0f} %"
-                    L.append(f"- {c['source']}: \"{c['text']}\" — `{c['protocol']}`{tag}: "
-                             f"{c['better']} vs {c['than']} on {c['metric']}: "
-                             f"{ci_text(c['summary'], '_pct')} % (claim {lo}..{hi} %): "
-                             f"**{c['verdict']}**"
-                             + (f" ({side(c)} the claim)" if side(c) else "")
-                             + f" (held in {held} of replicates; oracle "
-                             f"{ci_text(c['oracle_improvement'], '_pct')} %"
-                             + ("" if c["oracle_bounds_claim"] else ", not a bound for a filter")
-                             + (" (the filter oracle)" if c.get("oracle") == "oracle_filter"
-                                else "")
-                             + ")" + _start_text(c) + ".")
-                L.append("")
-            if doc.get("map"):
-                mp = doc["map"]
-                L += [f"Claim maps ({', '.join(a['name'] for a in mp['axes'])}; "
-                      f"{mp['replicates_per_point']} replicates per point):", ""]
-                for c in mp["claims"]:
-                    tag = " (in-sample)" if c["in_sample"] else ""
-                    L.append(f"- \"{c['text']}\" — `{c['protocol']}`{tag}: {c['sentence']}.")
-                if not mp["claims"]:
-                    L.append(f"- no claims to map; the metrics at every point: "
-                             f"[its report]({name}/report.md#metrics-at-every-point).")
-                L.append("")
-            if mc["rankings"]:
-                L += ["Rankings against the paper's table:", ""]
-                for rk in mc["rankings"]:
-                    top = rk["orderings"][0] if rk["orderings"] else None
-                    L.append(f"- `{rk['protocol']}`, {rk['run']}, {rk['metric']}: the paper's "
-                             f"order {' < '.join(rk['paper_order'])} in "
-                             f"{100 * rk['p_paper_order']:.0f} % of replicates"
-                             + (f"; most frequent {top['ordering']} "
-                                f"({100 * top['probability']:.0f} %)" if top else "") + ".")
-                L.append("")
-        else:
-            verdicts = claim_verdicts(plan, doc)
-            if verdicts:
-                L += ["Claims (one replicate: no interval):", ""] + [f"- {v}" for v in verdicts]
-                L.append("")
-        for note in plan.notes:
-            L += [f"> {note}", ""]
+        L += _scenario_lines(r, plans)
     L += ["## Bounds check", ""]
     L += (["Every declared bound holds."] if not violations else
           ["Outside bounds:", ""] + [f"- {v}" for v in violations])
@@ -372,42 +399,63 @@ def run_suite(scenario_dir: Path, out: Path, check: bool = False, jobs: int | No
             claim.remove()      # nothing was written: no empty folder left behind
 
 
-def _suite_body(plans, chosen, first_file, results, out, readme, check, jobs, recording,
-                quiet, replicates, method_seeds, scheduler, cluster, cluster_options,
-                resume, no_map, map_replicates, figures=True) -> int:
-    t0 = time.monotonic()
+def _open_mc(p: str, run_dir: Path, replicates, method_seeds, resume: bool) -> ScenarioMC:
+    """A scenario's replicates, resumed when asked (with nothing left over: started afresh)."""
+    try:
+        return ScenarioMC(p, run_dir, replicates=replicates, method_seeds=method_seeds,
+                          resume=resume)
+    except MonteCarloError as exc:
+        if not (resume and "nothing to resume" in str(exc)):
+            raise
+        # --resume on a suite: a scenario with nothing left over starts afresh
+        return ScenarioMC(p, run_dir, replicates=replicates, method_seeds=method_seeds,
+                          resume=False)
+
+
+def _open_map(p: str, run_dir: Path, mc: ScenarioMC, map_replicates, method_seeds,
+              resume: bool):
+    """A scenario's claim map, resumed when asked (with nothing left over: started afresh)."""
+    from fogbench.run.maps import MapRun
+
+    try:
+        return MapRun(p, run_dir, mc, replicates=map_replicates, method_seeds=method_seeds,
+                      resume=resume)
+    except MonteCarloError as exc:
+        if not (resume and "nothing to resume" in str(exc)):
+            raise
+        return MapRun(p, run_dir, mc, replicates=map_replicates, method_seeds=method_seeds)
+
+
+def _open_scenarios(chosen, first_file, out, results, replicates, method_seeds, resume,
+                    no_map, map_replicates) -> tuple[dict, dict]:
+    """(name -> ScenarioMC, name -> MapRun) of the chosen files; one refused is a failed result."""
     mcs: dict = {}
     maps: dict = {}
     for p in chosen:
         name = next(n for n, f in first_file.items() if str(f) == p)
         try:
-            try:
-                mcs[name] = ScenarioMC(p, Path(out) / name, replicates=replicates,
-                                       method_seeds=method_seeds, resume=resume)
-            except MonteCarloError as exc:
-                if not (resume and "nothing to resume" in str(exc)):
-                    raise
-                # --resume on a suite: a scenario with nothing left over starts afresh
-                mcs[name] = ScenarioMC(p, Path(out) / name, replicates=replicates,
-                                       method_seeds=method_seeds, resume=False)
+            mcs[name] = _open_mc(p, Path(out) / name, replicates, method_seeds, resume)
             if mcs[name].plan.map is not None and not no_map:
-                from fogbench.run.maps import MapRun
-
-                try:
-                    maps[name] = MapRun(p, Path(out) / name, mcs[name],
-                                        replicates=map_replicates, method_seeds=method_seeds,
-                                        resume=resume)
-                except MonteCarloError as exc:
-                    if not (resume and "nothing to resume" in str(exc)):
-                        raise
-                    maps[name] = MapRun(p, Path(out) / name, mcs[name],
-                                        replicates=map_replicates, method_seeds=method_seeds)
+                maps[name] = _open_map(p, Path(out) / name, mcs[name], map_replicates,
+                                       method_seeds, resume)
         except (MonteCarloError, OutDirError) as exc:
             if name in mcs:
                 mcs.pop(name).work.remove_if_empty()
             results.append({"path": p, "name": name, "ok": False, "wall_s": 0.0,
                             "error": str(exc)})
             print(f"fogbench: {name} is not run: {exc}", file=sys.stderr)
+    return mcs, maps
+
+
+def _say_kept(kept: dict) -> None:
+    """Name the scenarios whose stored replicates a --resume would go on from."""
+    print(f"fogbench: replicates kept for {', '.join(f'{n} ({k})' for n, k in kept.items())}"
+          "; run the suite again with --resume to go on", file=sys.stderr)
+
+
+def _run_scenarios(mcs: dict, maps: dict, out, results: list, jobs, scheduler, cluster,
+                   cluster_options, recording: bool, quiet: bool, figures: bool) -> None:
+    """Every replicate and map point on one executor; empty work folders go, maps released."""
     total = sum(len(m.todo) + 1 for m in mcs.values()) + sum(m.todo for m in maps.values())
     if not quiet:
         print(f"fogbench suite: {len(mcs)} scenario(s), "
@@ -424,8 +472,7 @@ def _suite_body(plans, chosen, first_file, results, out, readme, check, jobs, re
     except BaseException:
         kept = {n: len(m.done) for n, m in mcs.items() if m.done}
         if kept:
-            print(f"fogbench: replicates kept for {', '.join(f'{n} ({k})' for n, k in kept.items())}"
-                  "; run the suite again with --resume to go on", file=sys.stderr)
+            _say_kept(kept)
         for m in mcs.values():
             m.work.remove_if_empty()
         for m in maps.values():
@@ -435,6 +482,10 @@ def _suite_body(plans, chosen, first_file, results, out, readme, check, jobs, re
         m.work.remove_if_empty()
     for m in maps.values():
         m.release()
+
+
+def _violations(results: list, plans: dict) -> list[str]:
+    """Every bound left, every replicate that failed as a whole, every scenario that failed."""
     violations = []
     for r in results:
         if r["ok"]:
@@ -445,6 +496,11 @@ def _suite_body(plans, chosen, first_file, results, out, readme, check, jobs, re
                                   f"(first: r{f[0]['replicate']}: {f[0]['error']})")
         else:
             violations.append(f"{r['name']}: scenario failed: {r['error']}")
+    return violations
+
+
+def _summary_text(results: list, plans: dict, out, violations: list[str]) -> str:
+    """The summary, and below it a link to the cross-scenario comparison (written here)."""
     summary = summary_markdown(results, plans, out, violations)
     compared = _write_compare(out, [r["name"] for r in results if r["ok"]])
     if compared:
@@ -453,7 +509,20 @@ def _suite_body(plans, chosen, first_file, results, out, readme, check, jobs, re
                     "every scenario on its headline metric, improvement over raw with its "
                     "paired interval over replicates, the oracle beside it, rank with its "
                     "probability, failures, in-sample flagged (`fogbench compare`).\n")
-    _write_summary(readme, summary)
+    return summary
+
+
+def _suite_body(plans, chosen, first_file, results, out, readme, check, jobs, recording,
+                quiet, replicates, method_seeds, scheduler, cluster, cluster_options,
+                resume, no_map, map_replicates, figures=True) -> int:
+    """The suite once its outputs are checked and its folder claimed: run, summarise, check."""
+    t0 = time.monotonic()
+    mcs, maps = _open_scenarios(chosen, first_file, out, results, replicates, method_seeds,
+                                resume, no_map, map_replicates)
+    _run_scenarios(mcs, maps, out, results, jobs, scheduler, cluster, cluster_options,
+                   recording, quiet, figures)
+    violations = _violations(results, plans)
+    _write_summary(readme, _summary_text(results, plans, out, violations))
     print(f"fogbench suite: {sum(r['ok'] for r in results)}/{len(results)} scenario(s) ran in "
           f"{time.monotonic() - t0:.1f} s; summary in {readme}")
     for v in violations:
@@ -462,8 +531,7 @@ def _suite_body(plans, chosen, first_file, results, out, readme, check, jobs, re
             if m.work.path.is_dir()}
     kept = {n: k for n, k in kept.items() if k}
     if kept:  # a scenario that failed after its replicates were stored: the last line says so
-        print(f"fogbench: replicates kept for {', '.join(f'{n} ({k})' for n, k in kept.items())}"
-              "; run the suite again with --resume to go on", file=sys.stderr)
+        _say_kept(kept)
     if check and violations:
         return 1
     return 0 if all(r["ok"] and not r.get("replicate_failures") for r in results) else 1

@@ -276,9 +276,6 @@ def _log_piece(w: _Writer, key: str, it, colors, in_sample: bool,
     """Compensated outputs, errors, Allan deviation and PSD of one scored piece. In the
     Overview's error view (``error_shown``) a sweep is its default setting's line and the
     envelope of its members (the best and the worst at each time), as in the PNGs."""
-    from fogcomp import metrics as M
-    from fogcomp.allan import oadev_ci
-
     p = it.piece
     names = names or {}
     k = decimation(p.t.size, MAX_SERIES_POINTS)
@@ -319,27 +316,60 @@ def _log_piece(w: _Writer, key: str, it, colors, in_sample: bool,
                          _series_name(lab, in_sample, it.protocol, {**names, **as_default}),
                          c, width)
         if lab in spectra and p.raw.size >= 64:
-            try:
-                # intervals from the EDF of the noise type leading each tau (Greenhall & Riley)
-                ad = oadev_ci(err, p.fs, ci=CONFIDENCE)
-            except ValueError:  # display only: a curve that cannot be computed is left out
-                ad = None
-            if ad is not None:
-                ok = np.isfinite(ad.adev) & (ad.adev > 0) & np.isfinite(ad.low) & \
-                    np.isfinite(ad.high) & PAL.allan_drawn(ad.m, ad.n)   # as the PNG
-                if ok.sum() >= 2:
-                    allan.append((lab, name, c, ad.taus[ok], ad.adev[ok], ad.low[ok],
-                                  ad.high[ok]))
+            curve = _allan_curve(err, p.fs)
+            if curve is not None:
+                allan.append((lab, name, c, *curve))
         if lab in spectra and p.raw.size >= 16:
-            try:
-                # as the PNGs: Welch averaged in log-spaced bands, each with its interval
-                f, pxx, edf = M.psd_bands(err, p.fs, per_decade=PAL.PSD_PER_DECADE)
-                low, high = M.psd_band_interval(pxx, edf, CONFIDENCE)
-            except ValueError:
-                f = pxx = low = high = np.zeros(0)
-            ok = (f > 0) & np.isfinite(pxx) & (pxx > 0)
-            if ok.sum() >= 2:
-                psd.append((lab, name, c, f[ok], pxx[ok], low[ok], high[ok]))
+            curve = _psd_curve(err, p.fs)
+            if curve is not None:
+                psd.append((lab, name, c, *curve))
+    if sweeps:
+        _log_sweep_envelopes(w, key, it, sweeps, members_shown, in_envelope, s, colors,
+                             in_sample)
+    allan, psd = (_sweeps_as_envelopes(curves, sweeps, colors, in_sample, it.protocol)
+                  for curves in (allan, psd))
+    _log_spectra(w, key, it.run, allan, psd)
+    return k
+
+
+def _allan_curve(err: np.ndarray, fs: float):
+    """``(taus, adev, low, high)`` of an error in deg/h where drawn as in the PNG, intervals
+    from the EDF of the noise type leading each tau (Greenhall & Riley); None when it cannot be
+    computed or fewer than 2 taus are drawn (display only: the curve is left out)."""
+    from fogcomp.allan import oadev_ci
+
+    try:
+        ad = oadev_ci(err, fs, ci=CONFIDENCE)
+    except ValueError:
+        return None
+    ok = np.isfinite(ad.adev) & (ad.adev > 0) & np.isfinite(ad.low) & \
+        np.isfinite(ad.high) & PAL.allan_drawn(ad.m, ad.n)   # as the PNG
+    if ok.sum() >= 2:
+        return ad.taus[ok], ad.adev[ok], ad.low[ok], ad.high[ok]
+    return None
+
+
+def _psd_curve(err: np.ndarray, fs: float):
+    """``(f, pxx, low, high)`` of an error in deg/h as the PNGs: Welch averaged in log-spaced
+    bands, each with its interval; None when fewer than 2 bands are positive."""
+    from fogcomp import metrics as M
+
+    try:
+        f, pxx, edf = M.psd_bands(err, fs, per_decade=PAL.PSD_PER_DECADE)
+        low, high = M.psd_band_interval(pxx, edf, CONFIDENCE)
+    except ValueError:
+        f = pxx = low = high = np.zeros(0)
+    ok = (f > 0) & np.isfinite(pxx) & (pxx > 0)
+    if ok.sum() >= 2:
+        return f[ok], pxx[ok], low[ok], high[ok]
+    return None
+
+
+def _log_sweep_envelopes(w: _Writer, key: str, it, sweeps: list, members_shown: dict,
+                         in_envelope: set, s: slice, colors, in_sample: bool) -> None:
+    """The envelope of each sweep's members in the Overview's error view (the lowest and the
+    highest shown error at each time), and the members the Overview leaves to it."""
+    p = it.piece
     envelope = []
     for e in sweeps:
         stack = np.vstack([members_shown[m][s] for m in e["members"]])
@@ -351,21 +381,22 @@ def _log_piece(w: _Writer, key: str, it, colors, in_sample: bool,
             path = _p("runs", it.run, "fog", "error_shown", key, f"{e['group']} {ENVELOPE}", end)
             w.series(path, p.t[s], y, name, c, 1.0)
             envelope.append(path)
-    if sweeps:       # the members the Overview leaves to the envelope
-        w.sweeps[_p("runs", it.run, "fog", "error", key)] = (
-            {_p("runs", it.run, "fog", "error_shown", key, m) for m in in_envelope}, envelope)
-    allan, psd = (_sweeps_as_envelopes(curves, sweeps, colors, in_sample, it.protocol)
-                  for curves in (allan, psd))
+    w.sweeps[_p("runs", it.run, "fog", "error", key)] = (
+        {_p("runs", it.run, "fog", "error_shown", key, m) for m in in_envelope}, envelope)
+
+
+def _log_spectra(w: _Writer, key: str, run: str, allan: list, psd: list) -> None:
+    """The log-log Allan deviation and PSD plots of one scored piece, each where it has a
+    curve."""
     if allan:
-        _loglog(w, _p("report", "allan", key, it.run), allan, "tau, s",
+        _loglog(w, _p("report", "allan", key, run), allan, "tau, s",
                 "Allan deviation of output - truth, deg/h",
                 f"bars: {100 * CONFIDENCE:.0f} % interval, EDF of the leading noise type")
     if psd:
-        _loglog(w, _p("report", "psd", key, it.run), psd, "frequency, Hz",
+        _loglog(w, _p("report", "psd", key, run), psd, "frequency, Hz",
                 "PSD of output - truth, (deg/h)^2/Hz",
                 f"Welch in {PAL.PSD_PER_DECADE} bands a decade; bars: "
                 f"{100 * CONFIDENCE:.0f} % interval, EDF of each band")
-    return k
 
 
 def _sweeps_as_envelopes(curves: list, sweeps: list, colors, in_sample: bool,

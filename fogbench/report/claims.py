@@ -217,15 +217,12 @@ def fig_claim(c: dict, path: Path) -> bool:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from matplotlib.patches import Patch
 
     sm = c.get("summary") or {}
     if sm.get("mean") is None:
         return False     # no replicate gave the claimed quantity: nothing to draw
-    pr = c.get("per_replicate") or {}
     metric, unit = c["metric"], unit_of(c["metric"])
     mname = METRIC_NAMES.get(metric, metric)
-    oracle = c.get("oracle", "oracle")
     starts = _starts(c)
     rng = np.random.default_rng(0)             # horizontal jitter of the points only
     fig = plt.figure(figsize=(12.0, 8.8 if starts else 5.0))
@@ -236,8 +233,21 @@ def fig_claim(c: dict, path: Path) -> bool:
     ax = fig.add_subplot(gs[0, 0])
     bx = fig.add_subplot(gs[0, 1])
     vcol = verdict_color(c, "tab:blue")
+    _panel_improvement(ax, c, vcol, rng, mname)
+    _panel_paired(bx, c, vcol, rng, mname, unit)
+    if starts:
+        _draw_starts(fig.add_subplot(gs[1, :]), c, starts, metric, mname, unit)
+    _claim_heading(fig, c, vcol)
+    _claim_legend(fig, c, vcol, bool(starts))
+    files.save_figure(fig, path)
+    return True
 
-    # left: the improvement, the claimed range, the oracle
+
+def _panel_improvement(ax, c: dict, vcol: str, rng, mname: str) -> None:
+    """fig_claim's left panel: the improvement per replicate with its mean and interval, the
+    claimed range shaded, the oracle's improvement beside it."""
+    sm, pr = c.get("summary") or {}, c.get("per_replicate") or {}
+    oracle = c.get("oracle", "oracle")
     lo, hi = c.get("min_pct"), c.get("max_pct")
     ax.axhspan(-1e12 if lo is None else lo, 1e12 if hi is None else hi, color=CLAIM_COLOR,
                alpha=0.16, zorder=0, gid="claimed_range")
@@ -261,7 +271,12 @@ def fig_claim(c: dict, path: Path) -> bool:
                     if first is not None else ""), fontsize=10)
     ax.grid(True, axis="y", alpha=0.3)
 
-    # right: the paired differences in the metric's unit
+
+def _panel_paired(bx, c: dict, vcol: str, rng, mname: str, unit: str) -> None:
+    """fig_claim's right panel: the same pairs as differences in the metric's unit (method
+    minus comparator, and the oracle minus comparator), per replicate."""
+    metric, oracle = c["metric"], c.get("oracle", "oracle")
+    pr = c.get("per_replicate") or {}
     pd, opd = (c.get("paired") or {}).get("diff"), (c.get("oracle_paired") or {}).get("diff")
 
     def diff(a, b):
@@ -283,9 +298,11 @@ def fig_claim(c: dict, path: Path) -> bool:
                  fontsize=10)
     bx.grid(True, axis="y", alpha=0.3)
 
-    if starts:
-        _draw_starts(fig.add_subplot(gs[1, :]), c, starts, metric, mname, unit)
 
+def _claim_heading(fig, c: dict, vcol: str) -> None:
+    """fig_claim's heading: the claim's words, the verdict in its colour with the interval
+    against the claimed range, and where it was scored."""
+    sm = c.get("summary") or {}
     side_txt = side(c)
     n = sm.get("n", 0) + (sm.get("n_failed") or 0)
     head = textwrap.fill(f"{c['source']}: \"{c['text']}\"", 125)
@@ -298,6 +315,16 @@ def fig_claim(c: dict, path: Path) -> bool:
     fig.text(0.5, 1.0 - 0.1 / h, verdict, fontsize=12, fontweight="bold", color=vcol,
              ha="center", va="top")
     fig.text(0.5, 1.0 - 0.4 / h, where, fontsize=9, ha="center", va="top", color="0.25")
+
+
+def _claim_legend(fig, c: dict, vcol: str, starts: bool) -> None:
+    """fig_claim's legend under the panels: the claimed range, a replicate, the mean and its
+    interval, the method in its verdict colour, the oracle (and why it is no bound)."""
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import Patch
+
+    metric, oracle = c["metric"], c.get("oracle", "oracle")
+    bound = c.get("oracle_bounds_claim", True)
     handles = [Patch(color=CLAIM_COLOR, alpha=0.3, label=f"claimed: {claimed_text(c)}"),
                plt.Line2D([], [], marker="o", ls="none", color="0.4", alpha=0.6,
                           label="one replicate"),
@@ -315,8 +342,6 @@ def fig_claim(c: dict, path: Path) -> bool:
                              else ""))]
     fig.legend(handles=handles, loc="upper center", ncol=3, fontsize=8.5, frameon=False,
                bbox_to_anchor=(0.5, 0.0 if not starts else -0.01))
-    files.save_figure(fig, path)
-    return True
 
 
 def _starts(c: dict) -> dict | None:

@@ -91,105 +91,17 @@ def fig_map(map_doc: dict, k: int, path: Path) -> bool:
     import matplotlib
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
     from fogbench.outputs import files
 
     c = map_doc["claims"][k]
-    pts = map_doc["points"]
-    axes = map_doc["axes"]
     vals = c["points"]
     if not any(v is not None and v.get("mean") is not None for v in vals):
         return False
-    used = set()        # the verdict colours (and the oracle) drawn: the legend lists those
-    if len(axes) == 1:
-        fig, ax = plt.subplots(figsize=(max(5.0, 1.3 * len(pts) + 2.5), 4.2))
-        x = np.arange(len(pts))
-        lo, hi = c.get("min_pct"), c.get("max_pct")
-        ax.axhspan(-1e9 if lo is None else lo, 1e9 if hi is None else hi, color="#2a9d3f",
-                   alpha=0.12, label=f"claimed: {_claimed(c)}")
-        for i, (v, p) in enumerate(zip(vals, pts)):
-            if v is None or v.get("mean") is None:
-                continue
-            col = verdict_color({**v, "max_pct": v.get("max_pct", c.get("max_pct"))})
-            used.add(col)
-            err = [[v["mean"] - (v["ci_low"] if v["ci_low"] is not None else v["mean"])],
-                   [(v["ci_high"] if v["ci_high"] is not None else v["mean"]) - v["mean"]]]
-            ax.errorbar([i], [v["mean"]], yerr=err, fmt="o", color=col, ms=7 if p["base"] else 5,
-                        capsize=4, mec="k" if p["base"] else col)
-            if v.get("oracle_mean") is not None and v.get("oracle_bounds"):
-                ax.plot([i + 0.18], [v["oracle_mean"]], marker="_", ms=12, mew=2, color="0.45")
-                used.add("oracle")
-        ax.set_xticks(x)
-        ax.set_xticklabels([p["labels"][0] + ("\n(the scenario)" if p["base"] else "")
-                            for p in pts], fontsize=8)
-        ax.set_xlabel(axes[0]["name"])
-        ys = [y for v in vals if v for y in (v.get("ci_low"), v.get("ci_high"), v.get("mean"),
-                                             v.get("oracle_mean") if v.get("oracle_bounds")
-                                             else None) if y is not None]
-        ys += [b for b in (lo, hi) if b is not None]
-        pad = 0.1 * (max(ys) - min(ys) + 1.0)
-        ax.set_ylim(min(ys) - pad, max(ys) + pad)
-        ax.set_xlim(-0.6, len(pts) - 0.4)
-        ax.set_ylabel(textwrap.fill(f"improvement of {c['better']} over {c['than']}, % "
-                                    f"({c['metric']})", 42), fontsize=8)
-        handles = [plt.Line2D([], [], marker="o", ls="none", color=col, label=v)
-                   for v, col in LEGEND if col in used]
-        if "oracle" in used:
-            handles.append(plt.Line2D([], [], marker="_", ms=12, mew=2, ls="none",
-                                      color="0.45", label="oracle"))
-        ax.legend(handles=[*ax.get_legend_handles_labels()[0], *handles], fontsize=7,
-                  loc="upper left", bbox_to_anchor=(1.01, 1.0))
-        ax.grid(True, axis="y", alpha=0.3)
+    if len(map_doc["axes"]) == 1:
+        fig, ax = _map_line(c, map_doc["axes"], map_doc["points"])
     else:
-        # an axis the claim does not see (every value the same) is drawn as one line of
-        # cells: at a value other than the scenario's own (whose cell holds the scenario's run,
-        # its own replicates, not the map's numbers), the scenario's run noted in its row
-        same = no_effect_axes(map_doc, k)
-        base_v, base_p = next(((v, p) for v, p in zip(vals, pts) if p["base"]), (None, None))
-        pick = {a: next((p["index"][a] for p in pts if not p["base"] and (
-            base_p is None or p["index"][a] != base_p["index"][a])), 0) for a in same}
-        keep = [v_p for v_p in zip(vals, pts)
-                if all(v_p[1]["index"][a] == pick[a] for a in same)]
-        vals, pts = [v for v, _ in keep], [dict(p) for _, p in keep]
-        for p in pts:
-            if same and base_p is not None and base_v is not None and all(
-                    p["index"][a] == base_p["index"][a] for a in (0, 1) if a not in same):
-                p["scenario_note"] = (f"\nthe scenario's run:\n{_num(base_v['mean'])} % "
-                                      f"[{_num(base_v['ci_low'])}, {_num(base_v['ci_high'])}]")
-            p["index"] = [0 if a in same else p["index"][a] for a in (0, 1)]
-        axes = [dict(a, labels=[f"any of its {len(a['labels'])} values"],
-                     name=f"{a['name']}: no effect on this claim")
-                if i in same else a for i, a in enumerate(axes)]
-        na, nb = len(axes[0]["labels"]), len(axes[1]["labels"])
-        fig, ax = plt.subplots(figsize=(max(6.0 if same else 5.0, 1.6 * nb + 3),
-                                        max(3.0, 1.0 * na + 1.8)))
-        from matplotlib.colors import to_rgb
-
-        img = np.ones((na, nb, 3))
-        for v, p in zip(vals, pts):
-            i, j = p["index"]
-            if v is not None:
-                col = verdict_color({**v, "max_pct": c.get("max_pct")}, "#ffffff")
-                used.add(col)
-                img[i, j] = to_rgb(col)
-                txt = f"{_num(v['mean'])} %\n[{_num(v['ci_low'])}, {_num(v['ci_high'])}]"
-                if v.get("oracle_mean") is not None and v.get("oracle_bounds"):
-                    txt += f"\noracle {_num(v['oracle_mean'])} %"
-                ax.text(j, i, txt + ("\n(the scenario)" if p["base"] else "")
-                        + p.get("scenario_note", ""), ha="center",
-                        va="center", fontsize=7, color="black",
-                        fontweight="bold" if p["base"] else "normal")
-        ax.imshow(img, aspect="auto", alpha=0.45)
-        ax.set_xticks(range(nb))
-        ax.set_xticklabels(axes[1]["labels"], fontsize=8)
-        ax.set_yticks(range(na))
-        ax.set_yticklabels(axes[0]["labels"], fontsize=8)
-        ax.set_xlabel(axes[1]["name"])
-        ax.set_ylabel(axes[0]["name"])
-        handles = [plt.Line2D([], [], marker="s", ls="none", color=col, label=v)
-                   for v, col in LEGEND if col in used]
-        ax.legend(handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+        fig, ax = _map_grid(c, *_grid_cells(map_doc, k))
     # wrapped to the figure's width (paper000's claims ran off both sides, into the y label)
     width_in = fig.get_size_inches()[0]
     ax.set_title(textwrap.fill(f"{c['text']} ({c['protocol']}): {_claimed(c)}",
@@ -197,6 +109,119 @@ def fig_map(map_doc: dict, k: int, path: Path) -> bool:
     fig.tight_layout()
     files.save_figure(fig, path)
     return True
+
+
+def _map_line(c: dict, axes: list[dict], pts: list[dict]):
+    """A one-axis map of claim ``c``: each point's mean and interval coloured by verdict, the
+    oracle's improvement as a tick beside it, the claimed range shaded; the legend lists the
+    verdicts drawn. Returns the figure and its axes."""
+    import matplotlib.pyplot as plt
+
+    vals = c["points"]
+    used = set()        # the verdict colours (and the oracle) drawn: the legend lists those
+    fig, ax = plt.subplots(figsize=(max(5.0, 1.3 * len(pts) + 2.5), 4.2))
+    x = np.arange(len(pts))
+    lo, hi = c.get("min_pct"), c.get("max_pct")
+    ax.axhspan(-1e9 if lo is None else lo, 1e9 if hi is None else hi, color="#2a9d3f",
+               alpha=0.12, label=f"claimed: {_claimed(c)}")
+    for i, (v, p) in enumerate(zip(vals, pts)):
+        if v is None or v.get("mean") is None:
+            continue
+        col = verdict_color({**v, "max_pct": v.get("max_pct", c.get("max_pct"))})
+        used.add(col)
+        err = [[v["mean"] - (v["ci_low"] if v["ci_low"] is not None else v["mean"])],
+               [(v["ci_high"] if v["ci_high"] is not None else v["mean"]) - v["mean"]]]
+        ax.errorbar([i], [v["mean"]], yerr=err, fmt="o", color=col, ms=7 if p["base"] else 5,
+                    capsize=4, mec="k" if p["base"] else col)
+        if v.get("oracle_mean") is not None and v.get("oracle_bounds"):
+            ax.plot([i + 0.18], [v["oracle_mean"]], marker="_", ms=12, mew=2, color="0.45")
+            used.add("oracle")
+    ax.set_xticks(x)
+    ax.set_xticklabels([p["labels"][0] + ("\n(the scenario)" if p["base"] else "")
+                        for p in pts], fontsize=8)
+    ax.set_xlabel(axes[0]["name"])
+    ys = [y for v in vals if v for y in (v.get("ci_low"), v.get("ci_high"), v.get("mean"),
+                                         v.get("oracle_mean") if v.get("oracle_bounds")
+                                         else None) if y is not None]
+    ys += [b for b in (lo, hi) if b is not None]
+    pad = 0.1 * (max(ys) - min(ys) + 1.0)
+    ax.set_ylim(min(ys) - pad, max(ys) + pad)
+    ax.set_xlim(-0.6, len(pts) - 0.4)
+    ax.set_ylabel(textwrap.fill(f"improvement of {c['better']} over {c['than']}, % "
+                                f"({c['metric']})", 42), fontsize=8)
+    handles = [plt.Line2D([], [], marker="o", ls="none", color=col, label=v)
+               for v, col in LEGEND if col in used]
+    if "oracle" in used:
+        handles.append(plt.Line2D([], [], marker="_", ms=12, mew=2, ls="none",
+                                  color="0.45", label="oracle"))
+    ax.legend(handles=[*ax.get_legend_handles_labels()[0], *handles], fontsize=7,
+              loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    ax.grid(True, axis="y", alpha=0.3)
+    return fig, ax
+
+
+def _grid_cells(map_doc: dict, k: int) -> tuple[list, list, list, list]:
+    """The cells of claim k's two-axis map, as (values, points, axes, the axes it does not
+    see): an axis the claim does not see becomes one line of cells, named as having no effect."""
+    # an axis the claim does not see (every value the same) is drawn as one line of
+    # cells: at a value other than the scenario's own (whose cell holds the scenario's run,
+    # its own replicates, not the map's numbers), the scenario's run noted in its row
+    vals, pts = map_doc["claims"][k]["points"], map_doc["points"]
+    same = no_effect_axes(map_doc, k)
+    base_v, base_p = next(((v, p) for v, p in zip(vals, pts) if p["base"]), (None, None))
+    pick = {a: next((p["index"][a] for p in pts if not p["base"] and (
+        base_p is None or p["index"][a] != base_p["index"][a])), 0) for a in same}
+    keep = [v_p for v_p in zip(vals, pts)
+            if all(v_p[1]["index"][a] == pick[a] for a in same)]
+    vals, pts = [v for v, _ in keep], [dict(p) for _, p in keep]
+    for p in pts:
+        if same and base_p is not None and base_v is not None and all(
+                p["index"][a] == base_p["index"][a] for a in (0, 1) if a not in same):
+            p["scenario_note"] = (f"\nthe scenario's run:\n{_num(base_v['mean'])} % "
+                                  f"[{_num(base_v['ci_low'])}, {_num(base_v['ci_high'])}]")
+        p["index"] = [0 if a in same else p["index"][a] for a in (0, 1)]
+    axes = [dict(a, labels=[f"any of its {len(a['labels'])} values"],
+                 name=f"{a['name']}: no effect on this claim")
+            if i in same else a for i, a in enumerate(map_doc["axes"])]
+    return vals, pts, axes, same
+
+
+def _map_grid(c: dict, vals: list, pts: list, axes: list[dict], same: list):
+    """A two-axis map of claim ``c`` (cells and ``same`` from :func:`_grid_cells`): each cell coloured by
+    its verdict, holding its mean, interval and the oracle's improvement. Returns the figure
+    and its axes."""
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import to_rgb
+
+    used = set()        # the verdict colours drawn: the legend lists those
+    na, nb = len(axes[0]["labels"]), len(axes[1]["labels"])
+    fig, ax = plt.subplots(figsize=(max(6.0 if same else 5.0, 1.6 * nb + 3),
+                                    max(3.0, 1.0 * na + 1.8)))
+    img = np.ones((na, nb, 3))
+    for v, p in zip(vals, pts):
+        i, j = p["index"]
+        if v is not None:
+            col = verdict_color({**v, "max_pct": c.get("max_pct")}, "#ffffff")
+            used.add(col)
+            img[i, j] = to_rgb(col)
+            txt = f"{_num(v['mean'])} %\n[{_num(v['ci_low'])}, {_num(v['ci_high'])}]"
+            if v.get("oracle_mean") is not None and v.get("oracle_bounds"):
+                txt += f"\noracle {_num(v['oracle_mean'])} %"
+            ax.text(j, i, txt + ("\n(the scenario)" if p["base"] else "")
+                    + p.get("scenario_note", ""), ha="center",
+                    va="center", fontsize=7, color="black",
+                    fontweight="bold" if p["base"] else "normal")
+    ax.imshow(img, aspect="auto", alpha=0.45)
+    ax.set_xticks(range(nb))
+    ax.set_xticklabels(axes[1]["labels"], fontsize=8)
+    ax.set_yticks(range(na))
+    ax.set_yticklabels(axes[0]["labels"], fontsize=8)
+    ax.set_xlabel(axes[1]["name"])
+    ax.set_ylabel(axes[0]["name"])
+    handles = [plt.Line2D([], [], marker="s", ls="none", color=col, label=v)
+               for v, col in LEGEND if col in used]
+    ax.legend(handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    return fig, ax
 
 
 def render_map(map_doc: dict, fig_names: dict) -> str:

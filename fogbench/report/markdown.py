@@ -25,8 +25,25 @@ __all__ = ["raw_segment_stability"]
 def render_report(res: ScenarioResult, fig_names: dict, decimation: dict,
                   same: set | None = None) -> str:
     """The report's markdown; ``same``: :func:`same_as_lab` of ``res`` when already known."""
-    sc, plan, doc = res.scenario, res.plan, res.metrics
     same = same_as_lab(res) if same is None else same
+    L = _report_head(res)
+    for prot in res.plan.protocols:
+        L += _protocol_section(res, prot, fig_names, decimation, same)
+    t1 = _table1_section(res)
+    if t1:
+        L += [t1, ""]
+    fn = fig_names.get(("thermal",))
+    if fn:
+        L += ["## Temperature and bias", "", f"![thermal]({fn})", ""]
+    L += ["## Versions", "", ", ".join(f"{k} {v}" for k, v in res.metrics["versions"].items()),
+          ""]
+    return "\n".join(L)
+
+
+def _report_head(res: ScenarioResult) -> list[str]:
+    """The report's opening: the scenario, its notes, what the rows and units are, and the
+    table of runs (power-ons)."""
+    sc, plan, doc = res.scenario, res.plan, res.metrics
     L = [f"# {sc.name}", "", sc.description, "",
          f"Scenario file: `{Path(sc.path).name}`. FOG: {sc.device}; axis `{plan.axis}`; {sc.fs:g} Hz. Wall time {res.wall_s:.1f} s "
          "(simulating every run, fitting and scoring, in one process; it leaves out writing "
@@ -46,78 +63,95 @@ def render_report(res: ScenarioResult, fig_names: dict, decimation: dict,
                  f"{r['settled_hold_fast_path_s']:g}"] for name, r in doc["runs"].items()]
     L += ["## Runs (power-ons)", "", md_table(["run", "seed", "samples", "duration, s",
                                             "settled-hold fast path, s"], runs_tab), ""]
-    for prot in plan.protocols:
-        pd = doc["protocols"][prot.name]
-        flag = " — IN-SAMPLE (the paper's own protocol: scored on data it was fitted on)" \
-            if prot.in_sample else " — held out"
-        L += [f"## Protocol `{prot.name}`{flag}", ""]
-        if prot.description:
-            L += [prot.description, ""]
-        L += [f"Fit on: {'; '.join(s.describe() for s in prot.fit)}. Score on: "
-              f"{'; '.join(s.describe() for s in prot.score)}."
-              + (f" Per run: {', '.join(prot.runs)}." if prot.per_run else "")
-              + (f" Data smoothed by {prot.smooth_s:g} s means before fitting and scoring."
-                 if prot.smooth_s else "")
-              + (f" First {prot.skip_s:g} s of each run left out." if prot.skip_s else ""), ""]
-        for run, by_method in pd["runs"].items():
-            def cell(lab, met, v, _run=run):
-                pv = _paper_value(plan, lab, met, _run)
-                return fmt(v, met) + (f" (ref: {fmt(pv.value, met)})" if pv is not None else "")
+    return L
 
-            L += [f"### {run}", "", metrics_table(by_method, cell), ""]
-            refs = sorted({pv.source for pv in plan.paper if pv.run in (None, run)
-                           and pv.segment is None})
-            if refs:
-                L += ["(ref: " + "; ".join(refs) + ")", ""]
-            seg = _segment_table(res, prot.name, run)
-            if seg:
-                L += [seg, ""]
-            for kind in ("timeseries", "psd", "allan"):
-                fn = fig_names.get((prot.name, run, kind))
-                if fn:
-                    L += [f"![{kind} {run}]({fn})", ""]
-            if (prot.name, run) in same:
-                L += [f"(No figures of {run} here: every output of `{prot.name}` is "
-                      f"`{prot.twin_of}`'s to {SAME_FRACTION:g} of its error's span, under a "
-                      f"pixel; the lab's references and the truth gave the same fits. See "
-                      f"`{prot.twin_of}`'s figures.)", ""]
-            if (prot.name, run) in decimation and decimation[(prot.name, run)] > 1:
-                L += [f"(Time series decimated by {decimation[(prot.name, run)]} for display "
-                      "only; metrics use every sample.)", ""]
-        stitched = [x.run for x in res.scored
-                    if x.protocol == prot.name and not shows_time_structure(x.piece)]
-        if stitched:
-            L += [f"(No Allan deviation or PSD figure of {', '.join(stitched)}: each scored "
-                  "piece is made of separate static dwells, scored by each dwell's mean error, "
-                  "which neither can show; the dwell-means figures above show it.)", ""]
-        constant = list(dict.fromkeys(      # (where those figures were drawn)
-            x.run for x in res.scored if x.protocol == prot.name
-            and {(prot.name, x.run, "psd"), (prot.name, x.run, "allan")} & set(fig_names)
-            and offsets_only(x)))
-        if constant:
-            L += [(f"(The Allan deviation and PSD of {', '.join(constant)} are raw's alone: "
-                   "every output differs from raw by a constant (to "
-                   f"{SAME_FRACTION:g} of raw's error span), which an Allan deviation cannot "
-                   "see and a PSD removes, so each would lie on raw's curve; the tables show "
-                   "the constants.)"), ""]
-        fn = fig_names.get((prot.name, None, "coefficients"))
-        nothing = none_identified(res, prot.name)
-        if _coef_rows(res, prot.name) and not nothing:
-            L += [_coef_table(res, prot.name), ""] + ([f"![coefficients]({fn})", ""] if fn
-                                                      else [])
-        elif nothing:
-            L += [("(No coefficients figure or table: no fit of this protocol identified any "
-                   "of the ten coefficients by itself; what it determines is a combination of "
-                   "them, which the bias it books and the errors above show.)"), ""]
-        L += [_fit_notes(pd), ""]
-    t1 = _table1_section(res)
-    if t1:
-        L += [t1, ""]
-    fn = fig_names.get(("thermal",))
-    if fn:
-        L += ["## Temperature and bias", "", f"![thermal]({fn})", ""]
-    L += ["## Versions", "", ", ".join(f"{k} {v}" for k, v in doc["versions"].items()), ""]
-    return "\n".join(L)
+
+def _protocol_section(res: ScenarioResult, prot, fig_names: dict, decimation: dict,
+                      same: set) -> list[str]:
+    """One protocol's section: what it fits and scores on, each scored run's table and
+    figures, why figures are missing or raw's alone, its coefficients and its fit notes."""
+    pd = res.metrics["protocols"][prot.name]
+    flag = " — IN-SAMPLE (the paper's own protocol: scored on data it was fitted on)" \
+        if prot.in_sample else " — held out"
+    L = [f"## Protocol `{prot.name}`{flag}", ""]
+    if prot.description:
+        L += [prot.description, ""]
+    L += [f"Fit on: {'; '.join(s.describe() for s in prot.fit)}. Score on: "
+          f"{'; '.join(s.describe() for s in prot.score)}."
+          + (f" Per run: {', '.join(prot.runs)}." if prot.per_run else "")
+          + (f" Data smoothed by {prot.smooth_s:g} s means before fitting and scoring."
+             if prot.smooth_s else "")
+          + (f" First {prot.skip_s:g} s of each run left out." if prot.skip_s else ""), ""]
+    for run, by_method in pd["runs"].items():
+        L += _run_section(res, prot, run, by_method, fig_names, decimation, same)
+    L += _figure_caveats(res, prot, fig_names)
+    fn = fig_names.get((prot.name, None, "coefficients"))
+    nothing = none_identified(res, prot.name)
+    if _coef_rows(res, prot.name) and not nothing:
+        L += [_coef_table(res, prot.name), ""] + ([f"![coefficients]({fn})", ""] if fn
+                                                  else [])
+    elif nothing:
+        L += [("(No coefficients figure or table: no fit of this protocol identified any "
+               "of the ten coefficients by itself; what it determines is a combination of "
+               "them, which the bias it books and the errors above show.)"), ""]
+    L += [_fit_notes(pd), ""]
+    return L
+
+
+def _run_section(res: ScenarioResult, prot, run: str, by_method: dict, fig_names: dict,
+                 decimation: dict, same: set) -> list[str]:
+    """One scored run of a protocol: its metrics beside the references, its per-segment
+    table, its figures, and why they are absent or decimated."""
+    plan = res.plan
+
+    def cell(lab, met, v):
+        pv = _paper_value(plan, lab, met, run)
+        return fmt(v, met) + (f" (ref: {fmt(pv.value, met)})" if pv is not None else "")
+
+    L = [f"### {run}", "", metrics_table(by_method, cell), ""]
+    refs = sorted({pv.source for pv in plan.paper if pv.run in (None, run)
+                   and pv.segment is None})
+    if refs:
+        L += ["(ref: " + "; ".join(refs) + ")", ""]
+    seg = _segment_table(res, prot.name, run)
+    if seg:
+        L += [seg, ""]
+    for kind in ("timeseries", "psd", "allan"):
+        fn = fig_names.get((prot.name, run, kind))
+        if fn:
+            L += [f"![{kind} {run}]({fn})", ""]
+    if (prot.name, run) in same:
+        L += [f"(No figures of {run} here: every output of `{prot.name}` is "
+              f"`{prot.twin_of}`'s to {SAME_FRACTION:g} of its error's span, under a "
+              f"pixel; the lab's references and the truth gave the same fits. See "
+              f"`{prot.twin_of}`'s figures.)", ""]
+    if (prot.name, run) in decimation and decimation[(prot.name, run)] > 1:
+        L += [f"(Time series decimated by {decimation[(prot.name, run)]} for display "
+              "only; metrics use every sample.)", ""]
+    return L
+
+
+def _figure_caveats(res: ScenarioResult, prot, fig_names: dict) -> list[str]:
+    """Why a protocol's runs have no Allan deviation or PSD (stitched dwells) or show raw's
+    alone (every output differs from raw by a constant)."""
+    L = []
+    stitched = [x.run for x in res.scored
+                if x.protocol == prot.name and not shows_time_structure(x.piece)]
+    if stitched:
+        L += [f"(No Allan deviation or PSD figure of {', '.join(stitched)}: each scored "
+              "piece is made of separate static dwells, scored by each dwell's mean error, "
+              "which neither can show; the dwell-means figures above show it.)", ""]
+    constant = list(dict.fromkeys(      # (where those figures were drawn)
+        x.run for x in res.scored if x.protocol == prot.name
+        and {(prot.name, x.run, "psd"), (prot.name, x.run, "allan")} & set(fig_names)
+        and offsets_only(x)))
+    if constant:
+        L += [(f"(The Allan deviation and PSD of {', '.join(constant)} are raw's alone: "
+               "every output differs from raw by a constant (to "
+               f"{SAME_FRACTION:g} of raw's error span), which an Allan deviation cannot "
+               "see and a PSD removes, so each would lie on raw's curve; the tables show "
+               "the constants.)"), ""]
+    return L
 
 
 SEGMENT_METRIC = "bias_stability_100s_dph"
@@ -245,6 +279,23 @@ def _table1_section(res: ScenarioResult) -> str:
          "Bias stability of the raw output, deg/h (paper 002 eq. 5: standard deviation of the "
          "100 s means, over every sample of the segment), ours beside the paper's Table 1 value "
          "(in brackets), with the ratio ours / paper.", ""]
+    rows, ratio = _table1_rows(res, runs, segs, ours, j)
+    L += [md_table(["segment"] + runs, rows), ""]
+    for kind in ("hold", "ramp"):
+        if ratio[kind]:
+            L.append(f"- {kind}s: ours / paper {np.median(ratio[kind]):.2f} (median; "
+                     f"{min(ratio[kind]):.2f}..{max(ratio[kind]):.2f} over "
+                     f"{len(ratio[kind])} segments)")
+    L.append("")
+    L += _improvement_section(res, runs, segs)
+    return "\n".join(L)
+
+
+def _table1_rows(res: ScenarioResult, runs: list[str], segs: list[str], ours: dict,
+                 j: int) -> tuple[list, dict]:
+    """Table 1's rows (each segment, then the whole run: ours, the paper's value and the
+    ratio, per run) and the ratios ours / paper by segment type."""
+    plan = res.plan
     rows, ratio = [], {"hold": [], "ramp": []}
     for seg in segs + ["whole run"]:
         cells = [seg]
@@ -267,22 +318,21 @@ def _table1_section(res: ScenarioResult) -> str:
                         ratio[_kind(seg)].append(v / pv.value)
             cells.append(c)
         rows.append(cells)
-    L += [md_table(["segment"] + runs, rows), ""]
-    for kind in ("hold", "ramp"):
-        if ratio[kind]:
-            L.append(f"- {kind}s: ours / paper {np.median(ratio[kind]):.2f} (median; "
-                     f"{min(ratio[kind]):.2f}..{max(ratio[kind]):.2f} over "
-                     f"{len(ratio[kind])} segments)")
-    L.append("")
-    # improvement per segment type: ours (each protocol) and the paper's (Table 2 vs Table 1)
-    L += ["### Improvement per segment type", "",
-          "Improvement of the bias stability over the raw output in each segment, "
-          "100 (1 - B_method / B_raw), averaged over the hold and over the ramp segments of the "
-          "scored runs: mean (min..max, number of segments), percent. The paper's columns use its "
-          "Table 2 (compensated) against its Table 1 (raw). Paper 002 (section 3.3) reports that "
-          "compensation changes the hold segments little (the output is already stable there) "
-          "and the ramp segments a lot; these are the numbers of that statement here. One "
-          "realisation per run: no interval here.", ""]
+    return rows, ratio
+
+
+def _improvement_section(res: ScenarioResult, runs: list[str], segs: list[str]) -> list[str]:
+    """The improvement per segment type: ours (each protocol) and the paper's (Table 2 vs
+    Table 1), averaged over the hold and over the ramp segments."""
+    plan = res.plan
+    L = ["### Improvement per segment type", "",
+         "Improvement of the bias stability over the raw output in each segment, "
+         "100 (1 - B_method / B_raw), averaged over the hold and over the ramp segments of the "
+         "scored runs: mean (min..max, number of segments), percent. The paper's columns use its "
+         "Table 2 (compensated) against its Table 1 (raw). Paper 002 (section 3.3) reports that "
+         "compensation changes the hold segments little (the output is already stable there) "
+         "and the ramp segments a lot; these are the numbers of that statement here. One "
+         "realisation per run: no interval here.", ""]
     for prot in plan.protocols:
         imp: dict[str, dict[str, list]] = {}
         for r in runs:
@@ -311,7 +361,7 @@ def _table1_section(res: ScenarioResult) -> str:
         L += [f"Protocol `{prot.name}`:", "",
               md_table(["output", "holds, ours", "ramps, ours", "holds, paper", "ramps, paper"],
                        rows), ""]
-    return "\n".join(L)
+    return L
 
 
 def _fit_notes(pd: dict) -> str:

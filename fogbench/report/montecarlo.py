@@ -262,7 +262,30 @@ def recording_replicates(mc: dict, work=None) -> dict:
 
 
 def render_montecarlo(res: ScenarioResult, mc: dict, fig_names: dict) -> str:
+    """The report's Monte Carlo section: how the replicates were drawn, then the papers'
+    claims, the lab's cost, the rankings, the references, each protocol's table over
+    replicates and the figures over replicates, each part present only where it has data."""
     plan = res.plan
+    L = _mc_intro(mc)
+    if mc["claims"]:
+        L += _mc_claims(mc, fig_names)
+    if mc.get("lab_cost"):
+        L += _mc_lab_cost(mc)
+    if mc["rankings"]:
+        L += _mc_rankings(mc)
+    refs = [pv for pv in plan.paper if pv.segment is None]
+    if refs:
+        L += _mc_references(refs, plan, mc)
+    for prot in plan.protocols:
+        L += _mc_protocol_table(prot, plan, mc)
+    L += _mc_figure_links(fig_names)
+    L += render_bands(res, mc)
+    return "\n".join(L)
+
+
+def _mc_intro(mc: dict) -> list[str]:
+    """The section's head: how many replicates and seeds, how each random stream is drawn,
+    what the values are, the cost and the failed replicates."""
     R, K = mc["replicates"], mc["method_seeds"]
     cost = mc.get("cost", {})
     L = [f"## Over {R} replicates (Monte Carlo)", "",
@@ -282,110 +305,141 @@ def render_montecarlo(res: ScenarioResult, mc: dict, fig_names: dict) -> str:
         L += [f"Failed replicates ({len(mc['failed_replicates'])}): "
               + "; ".join(f"r{f['replicate']}: {f['error']}" for f in mc["failed_replicates"]),
               ""]
-    if mc["claims"]:
-        L += ["### The papers' claims", "",
-              "Verdict by the claimed quantity's interval over replicates: **agrees** (inside "
-              "the claimed range), **disagrees** (outside), **inconclusive** (overlapping), "
-              "**untestable** (the claim asks more than the oracle, the best model of the "
-              "deterministic error terms, can give here). The oracle's improvement is shown "
-              "beside every claim.", ""]
-        for i, c in enumerate(mc["claims"]):
-            lo = "" if c["min_pct"] is None else f"{c['min_pct']:g}"
-            hi = "" if c["max_pct"] is None else f"{c['max_pct']:g}"
-            rng = f"{lo}..{hi} %"
-            sm, osm = c["summary"], c["oracle_improvement"]
-            tag = " (in-sample, the paper's protocol)" if c["in_sample"] else " (held out)"
-            held = "–" if c["held"] is None else f"{100 * c['held']:.0f} %"
-            first = c["paired"].get("first_better")
-            L.append(f"- {c['source']}: \"{c['text']}\" — `{c['protocol']}`{tag}: "
-                     f"{c['better']} vs {c['than']} on {c['metric']}: "
-                     f"{ci_text(sm, '_pct')} % (claim {rng}): "
-                     + verdict_link(c, fig_names.get(("claim", i))) + "; the claim "
-                     f"held in {held} of replicates; {c['better']} better than {c['than']} in "
-                     f"{'–' if first is None else f'{100 * first:.0f} %'} of replicates. "
-                     f"Oracle over {c['than']}: {ci_text(osm, '_pct')} %"
-                     + ("" if c["oracle_bounds_claim"] else
-                        f" (not a bound here: {c['better']} also filters noise)") + "."
-                     + over_seeds_text(c))
-            if ("claim", i) in fig_names:
-                L += ["", f"  ![claim {i}: {c['better']} over {c['than']}]"
-                          f"({fig_names[('claim', i)]})", ""]
-        L.append("")
-    if mc.get("lab_cost"):
-        L += ["### What the lab's references cost", "",
-              "Each method fitted on what a lab has (protocol `reference = \"lab\"`: the table's "
-              "commands, the Earth rate at the believed latitude and heading, gravity through "
-              "the commanded attitude; `sim/lab.py`) and on the truth (the ideal lab, protocol "
-              "`<name>.ideal`), both scored against the truth on the same power-ons: the lab's "
-              "value minus the ideal one, mean [95 % t-interval] over replicates, and the share "
-              "of replicates where the lab's fit did worse (for the signed mean error: further from 0).", ""]
-        rows = []
-        for c in mc["lab_cost"]:
-            d, pr = c["paired"]["diff"], c["paired"]
-            worse = pr.get("second_better")
-            rows.append([f"`{c['protocol']}`", c["method"], c["metric"],
-                         ci_text(c["lab"], c["metric"]), ci_text(c["truth"], c["metric"]),
-                         ci_text(d, c["metric"]),
-                         "–" if worse is None else f"{100 * worse:.0f} %"])
-        L += [md_table(["protocol", "method", "metric", "lab reference", "ideal (truth)",
-                        "lab - ideal", "lab worse in"], rows), ""]
-    if mc["rankings"]:
-        L += ["### Rankings against the papers' tables", "",
-              "Probability of each ordering over replicates (`<` reads 'better than').", ""]
-        for rk in mc["rankings"]:
-            top = "; ".join(f"{o['ordering']}: {100 * o['probability']:.0f} %"
-                            for o in rk["orderings"][:3])
-            L.append(f"- `{rk['protocol']}`, {rk['run']}, {rk['metric']}: the paper's order "
-                     f"{' < '.join(rk['paper_order'])} in {100 * rk['p_paper_order']:.0f} % of "
-                     f"replicates. Most frequent: {top}.")
-        L.append("")
-    refs = [pv for pv in plan.paper if pv.segment is None]
-    if refs:
-        L += ["### Against the references", ""]
-        for pv in refs:
-            for prot in plan.protocols:
-                runs = [pv.run] if pv.run else list(mc["summary"].get(prot.name, {}))
-                for run in runs:
-                    sm = mc["summary"].get(prot.name, {}).get(run, {}).get(pv.method, {}).get(
-                        pv.metric)
-                    allan = pv.metric in ("arw_deg_rt_h", "bias_instability_dph", "rrw_dph_rt_h",
-                                          "gm_sigma_dph", "gm_tau_s")
-                    if sm and sm.get("n"):
-                        ours = ci_text({**sm, "n_failed": 0}, pv.metric)
-                        total = sm["n"] + (sm.get("n_failed") or 0)
-                        if sm.get("n_failed"):
-                            ours += (f", identified in {sm['n']} of {total} replicates" if allan
-                                     else f", failed in {sm['n_failed']} of {total}")
-                    else:
-                        ours = "not identified" if allan else "not computed"
-                    if allan and pv.source.startswith("configured"):
-                        ours = f"configured {fmt(pv.value, pv.metric)}, " + (
-                            ours if ours == "not identified" else f"identified {ours}")
-                    L.append(f"- `{prot.name}`, {run}, {pv.method}, {pv.metric}: reference "
-                             f"{fmt(pv.value, pv.metric)} ({pv.source}); ours {ours}.")
-        L.append("")
-    for prot in plan.protocols:
-        po = mc["over_runs"].get(prot.name, {})
-        metrics = [m for m in KEY_METRICS if m not in ("fit_time_s",) and any(
-            m in po.get(lab, {}) for lab in po)]
-        if not metrics:
-            continue
-        flag = " (IN-SAMPLE)" if prot.in_sample else ""
-        rows = [[lab] + [ci_text(po.get(lab, {}).get(m), m) for m in metrics] for lab in po]
-        L += [f"### `{prot.name}`{flag}: mean over scored runs, over replicates", "",
-              md_table(["method"] + metrics, rows), ""]
-        spread = mc.get("seed_spread", {}).get(prot.name, {})
-        if spread:
-            bits = []
-            for run, by_label in spread.items():
-                for lab, by_metric in by_label.items():
-                    km = key_metric(mc, prot.name, plan)
-                    if km in by_metric:
-                        bits.append(f"{lab} on {run}: {fmt(by_metric[km]['mean_std_over_seeds'], km)}")
-            if bits:
-                L += [f"Spread over the {K} method seeds inside a replicate (std of "
-                      f"{key_metric(mc, prot.name, plan)}, mean over replicates): "
-                      + "; ".join(bits) + ".", ""]
+    return L
+
+
+def _mc_claims(mc: dict, fig_names: dict) -> list[str]:
+    """The papers' claims, one item each: the claimed quantity over replicates, its verdict,
+    how often it held, the oracle's improvement beside it, and its figure."""
+    L = ["### The papers' claims", "",
+         "Verdict by the claimed quantity's interval over replicates: **agrees** (inside "
+         "the claimed range), **disagrees** (outside), **inconclusive** (overlapping), "
+         "**untestable** (the claim asks more than the oracle, the best model of the "
+         "deterministic error terms, can give here). The oracle's improvement is shown "
+         "beside every claim.", ""]
+    for i, c in enumerate(mc["claims"]):
+        lo = "" if c["min_pct"] is None else f"{c['min_pct']:g}"
+        hi = "" if c["max_pct"] is None else f"{c['max_pct']:g}"
+        rng = f"{lo}..{hi} %"
+        sm, osm = c["summary"], c["oracle_improvement"]
+        tag = " (in-sample, the paper's protocol)" if c["in_sample"] else " (held out)"
+        held = "–" if c["held"] is None else f"{100 * c['held']:.0f} %"
+        first = c["paired"].get("first_better")
+        L.append(f"- {c['source']}: \"{c['text']}\" — `{c['protocol']}`{tag}: "
+                 f"{c['better']} vs {c['than']} on {c['metric']}: "
+                 f"{ci_text(sm, '_pct')} % (claim {rng}): "
+                 + verdict_link(c, fig_names.get(("claim", i))) + "; the claim "
+                 f"held in {held} of replicates; {c['better']} better than {c['than']} in "
+                 f"{'–' if first is None else f'{100 * first:.0f} %'} of replicates. "
+                 f"Oracle over {c['than']}: {ci_text(osm, '_pct')} %"
+                 + ("" if c["oracle_bounds_claim"] else
+                    f" (not a bound here: {c['better']} also filters noise)") + "."
+                 + over_seeds_text(c))
+        if ("claim", i) in fig_names:
+            L += ["", f"  ![claim {i}: {c['better']} over {c['than']}]"
+                      f"({fig_names[('claim', i)]})", ""]
+    L.append("")
+    return L
+
+
+def _mc_lab_cost(mc: dict) -> list[str]:
+    """What the lab's references cost: each method's lab fit minus its ideal-lab twin, over
+    replicates, as a table."""
+    L = ["### What the lab's references cost", "",
+         "Each method fitted on what a lab has (protocol `reference = \"lab\"`: the table's "
+         "commands, the Earth rate at the believed latitude and heading, gravity through "
+         "the commanded attitude; `sim/lab.py`) and on the truth (the ideal lab, protocol "
+         "`<name>.ideal`), both scored against the truth on the same power-ons: the lab's "
+         "value minus the ideal one, mean [95 % t-interval] over replicates, and the share "
+         "of replicates where the lab's fit did worse (for the signed mean error: further from 0).", ""]
+    rows = []
+    for c in mc["lab_cost"]:
+        d, pr = c["paired"]["diff"], c["paired"]
+        worse = pr.get("second_better")
+        rows.append([f"`{c['protocol']}`", c["method"], c["metric"],
+                     ci_text(c["lab"], c["metric"]), ci_text(c["truth"], c["metric"]),
+                     ci_text(d, c["metric"]),
+                     "–" if worse is None else f"{100 * worse:.0f} %"])
+    L += [md_table(["protocol", "method", "metric", "lab reference", "ideal (truth)",
+                    "lab - ideal", "lab worse in"], rows), ""]
+    return L
+
+
+def _mc_rankings(mc: dict) -> list[str]:
+    """The papers' tables' orderings: how often each held over replicates, and the most
+    frequent ones."""
+    L = ["### Rankings against the papers' tables", "",
+         "Probability of each ordering over replicates (`<` reads 'better than').", ""]
+    for rk in mc["rankings"]:
+        top = "; ".join(f"{o['ordering']}: {100 * o['probability']:.0f} %"
+                        for o in rk["orderings"][:3])
+        L.append(f"- `{rk['protocol']}`, {rk['run']}, {rk['metric']}: the paper's order "
+                 f"{' < '.join(rk['paper_order'])} in {100 * rk['p_paper_order']:.0f} % of "
+                 f"replicates. Most frequent: {top}.")
+    L.append("")
+    return L
+
+
+def _mc_references(refs: list, plan, mc: dict) -> list[str]:
+    """Each reference value (``refs``: the plan's whole-run ones) beside ours over
+    replicates, per protocol and run; a noise term says whether it was configured and how
+    often it was identified."""
+    L = ["### Against the references", ""]
+    for pv in refs:
+        for prot in plan.protocols:
+            runs = [pv.run] if pv.run else list(mc["summary"].get(prot.name, {}))
+            for run in runs:
+                sm = mc["summary"].get(prot.name, {}).get(run, {}).get(pv.method, {}).get(
+                    pv.metric)
+                allan = pv.metric in ("arw_deg_rt_h", "bias_instability_dph", "rrw_dph_rt_h",
+                                      "gm_sigma_dph", "gm_tau_s")
+                if sm and sm.get("n"):
+                    ours = ci_text({**sm, "n_failed": 0}, pv.metric)
+                    total = sm["n"] + (sm.get("n_failed") or 0)
+                    if sm.get("n_failed"):
+                        ours += (f", identified in {sm['n']} of {total} replicates" if allan
+                                 else f", failed in {sm['n_failed']} of {total}")
+                else:
+                    ours = "not identified" if allan else "not computed"
+                if allan and pv.source.startswith("configured"):
+                    ours = f"configured {fmt(pv.value, pv.metric)}, " + (
+                        ours if ours == "not identified" else f"identified {ours}")
+                L.append(f"- `{prot.name}`, {run}, {pv.method}, {pv.metric}: reference "
+                         f"{fmt(pv.value, pv.metric)} ({pv.source}); ours {ours}.")
+    L.append("")
+    return L
+
+
+def _mc_protocol_table(prot, plan, mc: dict) -> list[str]:
+    """Protocol ``prot``'s key metrics, mean over its scored runs, over replicates, and the
+    spread over method seeds inside a replicate (nothing when it has none of the metrics)."""
+    po = mc["over_runs"].get(prot.name, {})
+    metrics = [m for m in KEY_METRICS if m not in ("fit_time_s",) and any(
+        m in po.get(lab, {}) for lab in po)]
+    if not metrics:
+        return []
+    flag = " (IN-SAMPLE)" if prot.in_sample else ""
+    rows = [[lab] + [ci_text(po.get(lab, {}).get(m), m) for m in metrics] for lab in po]
+    L = [f"### `{prot.name}`{flag}: mean over scored runs, over replicates", "",
+         md_table(["method"] + metrics, rows), ""]
+    spread = mc.get("seed_spread", {}).get(prot.name, {})
+    if spread:
+        bits = []
+        for run, by_label in spread.items():
+            for lab, by_metric in by_label.items():
+                km = key_metric(mc, prot.name, plan)
+                if km in by_metric:
+                    bits.append(f"{lab} on {run}: {fmt(by_metric[km]['mean_std_over_seeds'], km)}")
+        if bits:
+            L += [f"Spread over the {mc['method_seeds']} method seeds inside a replicate (std of "
+                  f"{key_metric(mc, prot.name, plan)}, mean over replicates): "
+                  + "; ".join(bits) + ".", ""]
+    return L
+
+
+def _mc_figure_links(fig_names: dict) -> list[str]:
+    """The figures over replicates that were drawn: distributions, metric by run, starts."""
+    L = []
     if ("replicates",) in fig_names:
         L += [f"![distributions over replicates]({fig_names[('replicates',)]})", ""]
     if ("runs",) in fig_names:
@@ -395,8 +449,7 @@ def render_montecarlo(res: ScenarioResult, mc: dict, fig_names: dict) -> str:
         L += ["The methods that draw random starts, start by start (points: every start of "
               "every replicate; crosses: the replicate means the claims use):", "",
               f"![distributions over method starts]({fig_names[('starts',)]})", ""]
-    L += render_bands(res, mc)
-    return "\n".join(L)
+    return L
 
 
 def over_seeds_text(c: dict) -> str:

@@ -156,13 +156,7 @@ def fig_allan(it, path: Path, plan=None) -> bool:
         keep = PAL.allan_drawn(ad.m, ad.n) & np.isfinite(ad.adev) & (ad.adev > 0)
         cut = ad.taus[keep][-1] if keep.any() else cut
         ads[lab], keeps[lab] = ad, keep
-    models = []
-    if _has_noise_model(p):
-        for lab in ("raw", "oracle"):
-            if lab in it.outputs:
-                nm = _noise_model(it.outputs[lab] - p.truth, p.fs)
-                if nm is not None and nm.in_model:
-                    models.append((lab, nm))
+    models = _allan_models(it)
     fixed = [lab for lab in ("raw", "oracle") if lab in labels]
     panels = _chunks(_method_entries(labels, plan), MAX_LINES - len(fixed) - len(models), plan)
     fig, axes = plt.subplots(len(panels), 1, figsize=(9.2, 0.8 + 4.0 * len(panels)),
@@ -171,44 +165,11 @@ def fig_allan(it, path: Path, plan=None) -> bool:
     taus = ads[labels[0]].taus[:last + 1]      # one record length: every output's taus
     shown = {lab: np.where(keeps[lab], ads[lab].adev / DPH, np.nan)[:last + 1]
              for lab in labels}
-
-    # the axis stops ALLAN_DECADES_BELOW_RAW decades below raw's and the oracle's lowest
-    # (static_allan's wavelet_soft, a smoother, ran to 2e-6 deg/h and squeezed raw into the top
-    # two of seven decades); a curve below is named so
-    refs = [float(np.nanmin(shown[lab])) for lab in fixed if np.any(np.isfinite(shown[lab]))]
-    floor = min(refs) * 10.0 ** -ALLAN_DECADES_BELOW_RAW if refs else None
-    if floor is not None and not any(np.nanmin(v) < floor for v in shown.values()
-                                     if np.any(np.isfinite(v))):
-        floor = None
-
-    def band(ax, lab):
-        ad, keep = ads[lab], keeps[lab]
-        ax.fill_between(ad.taus[keep], ad.low[keep] / DPH, ad.high[keep] / DPH,
-                        color=sty[lab]["color"], alpha=0.13, lw=0, zorder=1.0)
-
+    floor = _allan_floor(shown, fixed)
+    # the identified models are drawn up to the last tau drawn (else the cluster limit)
+    tt = np.geomspace(1.0 / p.fs, cut or p.raw.size / p.fs / PAL.ALLAN_MIN_CLUSTERS, 60)
     for ax, chunk in zip(axes[:, 0], panels):
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        for lab in fixed:
-            ax.plot(taus, shown[lab], label=lab, **sty[lab])
-            band(ax, lab)
-        for e in chunk:
-            below = floor is not None and any(
-                bool(np.nanmin(shown[m]) < floor) for m in e["members"]
-                if np.any(np.isfinite(shown[m])))
-            for ln in _draw_entry(ax, taus, shown, e, sty):
-                if below:
-                    ln.set_label(ln.get_label() + " (falls below the axis)")
-            band(ax, e["default"])
-        for lab, nm in models:
-            tt = np.geomspace(1.0 / p.fs, cut or p.raw.size / p.fs / PAL.ALLAN_MIN_CLUSTERS, 60)
-            ax.plot(tt, nm.model_adev(tt) / DPH, color=sty[lab]["color"], lw=1.0, ls=":",
-                    zorder=9.0, label=f"{lab}: identified model {nm.spec()}")
-        ax.set_ylabel(f"Allan deviation of (output - truth), {PAL.ERROR_UNIT}", fontsize=9)
-        if floor is not None:
-            ax.set_ylim(bottom=floor)
-        ax.grid(True, which="both", lw=0.3)
-        ax.legend(**LEGEND)
+        _panel_allan(ax, taus, shown, fixed, chunk, ads, keeps, sty, floor, models, tt)
     for ax in axes[:, 0]:
         _log_ticks(ax)
     axes[-1, 0].set_xlabel("averaging time tau, s")
@@ -218,6 +179,66 @@ def fig_allan(it, path: Path, plan=None) -> bool:
                          "clusters remain", fontsize=9)
     files.save_figure(fig, path)
     return True
+
+
+def _allan_models(it) -> list:
+    """The noise models the bench identifies in raw's and the oracle's errors, as (label,
+    model), where the piece allows one and the model holds."""
+    p = it.piece
+    models = []
+    if _has_noise_model(p):
+        for lab in ("raw", "oracle"):
+            if lab in it.outputs:
+                nm = _noise_model(it.outputs[lab] - p.truth, p.fs)
+                if nm is not None and nm.in_model:
+                    models.append((lab, nm))
+    return models
+
+
+def _allan_floor(shown: dict, fixed: list[str]) -> float | None:
+    """The Allan axis' bottom: ALLAN_DECADES_BELOW_RAW decades below raw's and the oracle's
+    lowest, where some curve falls below it (else None: the axis as drawn)."""
+    # (static_allan's wavelet_soft, a smoother, ran to 2e-6 deg/h and squeezed raw into the
+    # top two of seven decades); a curve below is named so
+    refs = [float(np.nanmin(shown[lab])) for lab in fixed if np.any(np.isfinite(shown[lab]))]
+    floor = min(refs) * 10.0 ** -ALLAN_DECADES_BELOW_RAW if refs else None
+    if floor is not None and not any(np.nanmin(v) < floor for v in shown.values()
+                                     if np.any(np.isfinite(v))):
+        floor = None
+    return floor
+
+
+def _panel_allan(ax, taus, shown: dict, fixed: list[str], chunk: list[dict], ads: dict,
+                 keeps: dict, sty: dict, floor: float | None, models: list, tt) -> None:
+    """One Allan panel: raw and oracle, the chunk's methods and sweeps (a curve under the
+    ``floor`` named so), each with its interval band, and the identified models over ``tt``."""
+
+    def band(lab):
+        ad, keep = ads[lab], keeps[lab]
+        ax.fill_between(ad.taus[keep], ad.low[keep] / DPH, ad.high[keep] / DPH,
+                        color=sty[lab]["color"], alpha=0.13, lw=0, zorder=1.0)
+
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    for lab in fixed:
+        ax.plot(taus, shown[lab], label=lab, **sty[lab])
+        band(lab)
+    for e in chunk:
+        below = floor is not None and any(
+            bool(np.nanmin(shown[m]) < floor) for m in e["members"]
+            if np.any(np.isfinite(shown[m])))
+        for ln in _draw_entry(ax, taus, shown, e, sty):
+            if below:
+                ln.set_label(ln.get_label() + " (falls below the axis)")
+        band(e["default"])
+    for lab, nm in models:
+        ax.plot(tt, nm.model_adev(tt) / DPH, color=sty[lab]["color"], lw=1.0, ls=":",
+                zorder=9.0, label=f"{lab}: identified model {nm.spec()}")
+    ax.set_ylabel(f"Allan deviation of (output - truth), {PAL.ERROR_UNIT}", fontsize=9)
+    if floor is not None:
+        ax.set_ylim(bottom=floor)
+    ax.grid(True, which="both", lw=0.3)
+    ax.legend(**LEGEND)
 
 
 def shows_time_structure(p) -> bool:

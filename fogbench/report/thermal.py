@@ -49,8 +49,6 @@ def fig_thermal(res: ScenarioResult, run: str, path: Path) -> bool:
     ts, tname = PAL.time_unit(float(rd.truth.t[-1]))
     t = M.smooth(rd.truth.t, rd.fs, 100.0) / ts
     bias = M.smooth(rd.fog.raw[:, j] - rd.truth_axis(j), rd.fs, 100.0) / DPH
-    th = rd.thermal
-    th_h = rd.truth.t / ts
     fig = plt.figure(figsize=(13.5, 6.5))
     gs = fig.add_gridspec(2, 2, width_ratios=(2.3, 1.0), wspace=0.22, hspace=0.12)
     ax = fig.add_subplot(gs[0, 0])
@@ -58,6 +56,29 @@ def fig_thermal(res: ScenarioResult, run: str, path: Path) -> bool:
     ax_l = fig.add_subplot(gs[1, 1], sharey=ax_b)
     ax_key = fig.add_subplot(gs[0, 1])
     ax_key.axis("off")
+    ax2, has_sensor = _panel_temperatures(ax, res, run, rd.truth.t / ts)
+    ax_b.plot(t, bias, lw=0.8, color="0.4",
+              label=f"raw output - truth (100 s means of {k} samples)")
+    ax_b.set_ylabel(f"bias, {PAL.ERROR_UNIT}")
+    _min_span(ax_b, PAL.ERROR_UNIT)
+    ax_b.set_xlabel(f"time since power-on, {tname}")
+    _panel_loop(ax_l, rd, j, bias, has_sensor)
+    handles = []
+    labels = []
+    for a in (ax, ax2, ax_b, ax_l):
+        h, lab = a.get_legend_handles_labels()
+        handles += h
+        labels += lab
+    ax_key.legend(handles, labels, loc="upper left", fontsize=8, frameon=False)
+    files.save_figure(fig, path)
+    return True
+
+
+def _panel_temperatures(ax, res: ScenarioResult, run: str, th_h):
+    """fig_thermal's top panel: the chamber program, the FOG's node temperatures and the
+    sensor reading (where it differs from the coil) against time ``th_h``, the coil's dT/dt
+    on a right axis. Returns that right axis and whether the run has a sensor of its own."""
+    th = res.data[run].thermal
     ax.plot(th_h, th.chamber, color="tab:blue", lw=1.4, label="chamber")
     if th.housing is not None and not np.array_equal(th.housing, th.chamber):
         ax.plot(th_h, th.housing, color="tab:purple", lw=2.6, alpha=0.6, label="housing")
@@ -75,12 +96,13 @@ def fig_thermal(res: ScenarioResult, run: str, path: Path) -> bool:
     scored = sorted({it.protocol for it in getattr(res, "scored", ()) if run in it.run.split("+")})
     ax.set_title(f"{run}" + (f" (scored by {', '.join(scored)})" if scored else "")
                  + ": chamber program, FOG temperatures and raw bias", fontsize=10)
-    ax_b.plot(t, bias, lw=0.8, color="0.4",
-              label=f"raw output - truth (100 s means of {k} samples)")
-    ax_b.set_ylabel(f"bias, {PAL.ERROR_UNIT}")
-    _min_span(ax_b, PAL.ERROR_UNIT)
-    ax_b.set_xlabel(f"time since power-on, {tname}")
-    # the loop: bias against the temperature a lab reads, by the direction of the coil's drift
+    return ax2, has_sensor
+
+
+def _panel_loop(ax_l, rd, j: int, bias, has_sensor: bool) -> None:
+    """fig_thermal's loop: the bias against the temperature a lab reads, each point by the
+    direction of the coil's drift, with the simulated thermal term alone beside it."""
+    th = rd.thermal
     temp = M.smooth(th.sensor if has_sensor else th.coil, rd.fs, 100.0)
     rate = M.smooth(th.coil_rate * 60.0, rd.fs, 100.0)
     steady = STEADY_FRACTION * max(float(np.max(np.abs(rate))), 1e-12)
@@ -109,12 +131,3 @@ def fig_thermal(res: ScenarioResult, run: str, path: Path) -> bool:
     ax_l.set_xlim(lo, hi)
     ax_l.tick_params(labelleft=False)
     ax_l.set_title("the same bias against temperature", fontsize=9)
-    handles = []
-    labels = []
-    for a in (ax, ax2, ax_b, ax_l):
-        h, lab = a.get_legend_handles_labels()
-        handles += h
-        labels += lab
-    ax_key.legend(handles, labels, loc="upper left", fontsize=8, frameon=False)
-    files.save_figure(fig, path)
-    return True

@@ -200,23 +200,7 @@ def fig_timeseries(it, path: Path, plan=None) -> int:
     (t, truth, raw_out, *dec), step = _decimate(p.t / ts, p.truth, p.raw,
                                                 *[shown[lab] for lab in labels])
     cur = dict(zip(labels, dec))
-    # a method whose error dwarfs the others' (dynamic_rates' Kalman filters smoothing away a
-    # 5 Hz sine: +-5000 deg/h against the denoisers' +-300) gets panels of its own, so that
-    # the zoom holds the rest
-    loud = _dwarfing_entries(entries, cur)
-    quiet = [e for e in entries if e not in loud]
-    methods = [m for e in quiet for m in e["members"]]
-    lo, hi = _span([cur[m] for m in methods])
-    width = hi - lo
-
-    def dwarfs(lab):        # the axis holding it and the methods spans DWARF x the methods'
-        a, b = _span([cur[lab]])   # (methods within the unit's minimum span of each other,
-        #                            bias_lab's three equal bias fits: nothing to zoom to)
-        return bool(methods) and width >= PAL.MIN_SPAN[PAL.ERROR_UNIT] and \
-            max(b, hi) - min(a, lo) > DWARF * max(width, 1e-300)
-
-    big = [lab for lab in ("raw", "oracle") if lab in cur and dwarfs(lab)]
-    fixed = [lab for lab in ("raw", "oracle") if lab in cur and lab not in big]
+    loud, quiet, methods, big, fixed = _ts_split(entries, cur)
     lo, hi = _span([cur[m] for m in methods + fixed])   # the zoom: methods, and raw/oracle
     width = hi - lo                                      # where they do not dwarf them
     ref_panel = bool(big) or kind is not None or centre
@@ -238,46 +222,96 @@ def fig_timeseries(it, path: Path, plan=None) -> int:
     sty = _styles(labels, widest=1.6, thinnest=0.8, dashed_raw=False, plan=plan)
     head = f"{it.protocol} / {it.run}: "
     if not static:
-        ax = axes.pop(0)
-        if "raw" in it.outputs:
-            ax.plot(t, raw_out / DPS, label="raw", alpha=0.85, **sty["raw"])
-        ax.plot(t, truth / DPS, color=COLORS["truth"], lw=1.4, ls="--", label="truth",
-                zorder=10)
-        ax.set_ylabel(f"rate, {PAL.RATE_UNIT}", fontsize=9)
-        _min_span(ax, PAL.RATE_UNIT)
-        ax.legend(**LEGEND)
-        ax.set_title(head + "raw output and truth; below, the error against the truth",
-                     fontsize=10)
+        _panel_rate(axes.pop(0), t, truth, raw_out, "raw" in it.outputs, sty,
+                    head + "raw output and truth; below, the error against the truth")
         head = ""
     else:
         head += (f"a static record (true rate {float(np.mean(p.truth)) / DPH:.4g} deg/h "
                  "throughout): the error against the truth\n")
     if ref_panel:
-        ax = axes.pop(0)
-        # the errors as they are, and raw's k-sample moving mean: what the panels below take
-        # out (kind "trend") or show (kind "fast")
-        for lab in ("oracle", "raw"):
-            if lab in big or (lab == "raw" and (kind is not None or centre)) or \
-                    (lab == "oracle" and centre):
-                ax.plot(t, errs[lab][::step], label=f"{lab}", alpha=0.85, **sty[lab])
-        if kind is not None and "raw" in errs:
-            ax.plot(t, _moving_mean(errs["raw"], k)[::step], color="black", lw=1.2, zorder=9,
-                    label=f"raw's {k}-sample moving mean"
-                          + {"trend": "; less its mean, taken out below",
-                             "both": "; the panels below draw each curve's, less this "
-                                     "about its mean"}.get(
-                                 kind, "; the panels below draw each curve's"))
-        ax.set_ylabel(f"error, {PAL.ERROR_UNIT}", fontsize=9)
-        _min_span(ax, PAL.ERROR_UNIT)
-        ax.legend(**LEGEND)
-        if head:
-            ax.set_title(head.rstrip("\n") + "; here as it is", fontsize=10)
-            head = ""
+        _panel_as_it_is(axes.pop(0), t, errs, step, big, kind, k, centre, sty,
+                        head.rstrip("\n") + "; here as it is" if head else None)
+        head = ""
+    what, note = _zoomed_wording(kind, k, k / p.fs, centre)
     pad = 0.05 * max(width, 1e-12)
+    for i, (chunk, is_loud) in enumerate(panels):
+        _panel_zoomed(axes[i], t, cur, chunk, is_loud, fixed, under_raw, sty,
+                      (lo - pad, hi + pad) if methods else None, what)
+        if i == 0:
+            axes[i].set_title(head + "methods' error, zoomed to them"
+                              + (f" ({', '.join(big)} above: off this scale)" if big else "")
+                              + note, fontsize=9)
+    fig.axes[-1].set_xlabel(f"time since power-on, {tname}")
+    files.save_figure(fig, path)
+    return step
+
+
+def _ts_split(entries: list[dict], cur: dict) -> tuple[list, list, list, list, list]:
+    """Which curves go to which panels of :func:`fig_timeseries`: the entries whose errors
+    dwarf the rest's (``loud``, panels of their own), the others (``quiet``) and their
+    methods, and raw and oracle where they dwarf those methods (``big``: the panel of errors
+    as they are alone) or not (``fixed``: beside the methods)."""
+    # a method whose error dwarfs the others' (dynamic_rates' Kalman filters smoothing away a
+    # 5 Hz sine: +-5000 deg/h against the denoisers' +-300) gets panels of its own, so that
+    # the zoom holds the rest
+    loud = _dwarfing_entries(entries, cur)
+    quiet = [e for e in entries if e not in loud]
+    methods = [m for e in quiet for m in e["members"]]
+    lo, hi = _span([cur[m] for m in methods])
+    width = hi - lo
+
+    def dwarfs(lab):        # the axis holding it and the methods spans DWARF x the methods'
+        a, b = _span([cur[lab]])   # (methods within the unit's minimum span of each other,
+        #                            bias_lab's three equal bias fits: nothing to zoom to)
+        return bool(methods) and width >= PAL.MIN_SPAN[PAL.ERROR_UNIT] and \
+            max(b, hi) - min(a, lo) > DWARF * max(width, 1e-300)
+
+    big = [lab for lab in ("raw", "oracle") if lab in cur and dwarfs(lab)]
+    fixed = [lab for lab in ("raw", "oracle") if lab in cur and lab not in big]
+    return loud, quiet, methods, big, fixed
+
+
+def _panel_rate(ax, t, truth, raw_out, has_raw: bool, sty: dict, title: str) -> None:
+    """fig_timeseries' top panel: the raw output (when there is one) and the truth, deg/s."""
+    if has_raw:
+        ax.plot(t, raw_out / DPS, label="raw", alpha=0.85, **sty["raw"])
+    ax.plot(t, truth / DPS, color=COLORS["truth"], lw=1.4, ls="--", label="truth",
+            zorder=10)
+    ax.set_ylabel(f"rate, {PAL.RATE_UNIT}", fontsize=9)
+    _min_span(ax, PAL.RATE_UNIT)
+    ax.legend(**LEGEND)
+    ax.set_title(title, fontsize=10)
+
+
+def _panel_as_it_is(ax, t, errs: dict, step: int, big: list, kind, k: int, centre: bool,
+                    sty: dict, title: str | None) -> None:
+    """fig_timeseries' panel of errors as they are (raw's, the oracle's where they dwarf the
+    methods or the panels below change them) with raw's k-sample moving mean: what the
+    panels below take out (kind "trend") or show (kind "fast")."""
+    for lab in ("oracle", "raw"):
+        if lab in big or (lab == "raw" and (kind is not None or centre)) or \
+                (lab == "oracle" and centre):
+            ax.plot(t, errs[lab][::step], label=f"{lab}", alpha=0.85, **sty[lab])
+    if kind is not None and "raw" in errs:
+        ax.plot(t, _moving_mean(errs["raw"], k)[::step], color="black", lw=1.2, zorder=9,
+                label=f"raw's {k}-sample moving mean"
+                      + {"trend": "; less its mean, taken out below",
+                         "both": "; the panels below draw each curve's, less this "
+                                 "about its mean"}.get(
+                             kind, "; the panels below draw each curve's"))
+    ax.set_ylabel(f"error, {PAL.ERROR_UNIT}", fontsize=9)
+    _min_span(ax, PAL.ERROR_UNIT)
+    ax.legend(**LEGEND)
+    if title:
+        ax.set_title(title, fontsize=10)
+
+
+def _zoomed_wording(kind, k: int, dt: float, centre: bool) -> tuple[str, str]:
+    """The zoomed panels' y label and the note their title ends with: what the curves are
+    (the error, its moving mean, less raw's trend, less its own mean) and why."""
     what = {"trend": "error - raw's trend", "fast": f"error, {k}-sample mean",
             "both": "moving mean - raw's trend"}.get(kind, "error vs truth") \
         + (",\nless its mean" if centre else "")
-    dt = k / p.fs
     note = {"trend": "; raw's slow variation about its mean taken out of every curve: no "
                      "method removes it",
             "fast": f"; {k}-sample ({dt:.3g} s) moving means: every method keeps raw's faster "
@@ -286,31 +320,30 @@ def fig_timeseries(it, path: Path, plan=None) -> int:
                     "method keeps raw's noise, fast and slow"}.get(kind, "") \
         + ("\neach curve less its own mean (the claims on this run score the std, blind to "
            "it)" if centre else "")
-    for i, (chunk, is_loud) in enumerate(panels):
-        ax = axes[i]
-        for lab in fixed:
-            ax.plot(t, cur[lab], label=under_raw.get(lab, lab), alpha=0.85, **sty[lab])
-        for e in chunk:
-            _draw_entry(ax, t, cur, e, sty, alpha=0.9)
-        if is_loud:
-            a, b = _span([cur[m] for e in chunk for m in e["members"]] +
-                         [cur[lab] for lab in fixed])
-            ax.set_ylim(a - 0.05 * (b - a), b + 0.05 * (b - a))
-            ax.set_title("off the scale above: " + ", ".join(
-                m for e in chunk for m in e["members"]), fontsize=9)
-        elif methods:
-            ax.set_ylim(lo - pad, hi + pad)
-        _min_span(ax, PAL.ERROR_UNIT)
-        # two lines: "error, 10-sample mean, deg/h" on one ran into the next panel's label
-        ax.set_ylabel(f"{what},\n{PAL.ERROR_UNIT}", fontsize=9)
-        ax.legend(**LEGEND)
-        if i == 0:
-            ax.set_title(head + "methods' error, zoomed to them"
-                         + (f" ({', '.join(big)} above: off this scale)" if big else "")
-                         + note, fontsize=9)
-    fig.axes[-1].set_xlabel(f"time since power-on, {tname}")
-    files.save_figure(fig, path)
-    return step
+    return what, note
+
+
+def _panel_zoomed(ax, t, cur: dict, chunk: list[dict], is_loud: bool, fixed: list,
+                  under_raw: dict, sty: dict, ylim: tuple | None, what: str) -> None:
+    """One of fig_timeseries' methods' panels: raw and oracle where they do not dwarf the
+    methods, then the chunk's methods and sweeps, on the shared zoom ``ylim`` (a loud chunk:
+    on its own range, titled as off the scale above)."""
+    for lab in fixed:
+        ax.plot(t, cur[lab], label=under_raw.get(lab, lab), alpha=0.85, **sty[lab])
+    for e in chunk:
+        _draw_entry(ax, t, cur, e, sty, alpha=0.9)
+    if is_loud:
+        a, b = _span([cur[m] for e in chunk for m in e["members"]] +
+                     [cur[lab] for lab in fixed])
+        ax.set_ylim(a - 0.05 * (b - a), b + 0.05 * (b - a))
+        ax.set_title("off the scale above: " + ", ".join(
+            m for e in chunk for m in e["members"]), fontsize=9)
+    elif ylim is not None:
+        ax.set_ylim(*ylim)
+    _min_span(ax, PAL.ERROR_UNIT)
+    # two lines: "error, 10-sample mean, deg/h" on one ran into the next panel's label
+    ax.set_ylabel(f"{what},\n{PAL.ERROR_UNIT}", fontsize=9)
+    ax.legend(**LEGEND)
 
 
 DWELL_BARS_MAX = 40      # dwells: above this many, means as lines without error bars
@@ -338,17 +371,7 @@ def fig_dwells(it, path: Path, plan=None) -> None:
     k = truth_mean.size
     x = np.arange(1, k + 1)
     bars = k <= DWELL_BARS_MAX
-    err, sem = {}, {}
-    for lab in labels:
-        _, e, se = dwell_means(p.t, it.outputs[lab] - p.truth, p.fs)
-        err[lab], sem[lab] = e / DPH, se / DPH
-    # beyond DWELL_BARS_MAX dwells the methods' noisy means tangle (thermal_with_motion's 133):
-    # their panels draw each method's dwell mean less the oracle's, the deterministic error it
-    # leaves, which holds no noise for a model of the terms (method - oracle = true terms -
-    # the method's estimate; a denoiser's difference also holds the noise it took out)
-    less_oracle = not bars and "oracle" in err and bool(methods)
-    if less_oracle:
-        err = {lab: (e - err["oracle"] if lab in methods else e) for lab, e in err.items()}
+    err, sem, less_oracle = _dwell_errors(it, methods, bars)
 
     def reach(lab):     # what a label's marks reach: its means and, with bars, their ends
         return [err[lab] - sem[lab], err[lab] + sem[lab]] if bars else [err[lab]]
@@ -364,6 +387,7 @@ def fig_dwells(it, path: Path, plan=None) -> None:
     axes = list(axes[:, 0])
 
     def draw(ax, lab, y, se, dx=0.0):
+        """One label's dwell means on ``ax``: markers with their bars, or joined by a line."""
         kw = dict(color=sty[lab]["color"], zorder=sty[lab]["zorder"],
                   marker={"raw": "D", "oracle": "s"}.get(lab) or
                   DWELL_MARKERS[member.get(lab, 0) % len(DWELL_MARKERS)],
@@ -373,7 +397,46 @@ def fig_dwells(it, path: Path, plan=None) -> None:
         else:
             ax.plot(x, y, ms=2.5, lw=0.8, alpha=0.9, **kw)
 
-    ax = axes[0]
+    _panel_dwell_rates(axes[0], it, x, truth_mean, draw, bars)
+    _panel_dwell_refs(axes[1], err, sem, draw, bars)
+    pad = 0.08 * max(hi - lo, 1e-12)
+    ylim = (min(lo, o_lo if oracle_in else lo) - pad, max(hi, o_hi if oracle_in else hi) + pad)
+    for ax, chunk in zip(axes[2:], panels):
+        _panel_dwell_methods(ax, chunk, err, sem, draw, bars, oracle_in, less_oracle, ylim)
+    if len(axes) > 2:
+        axes[2].set_title(
+            "methods' dwell-mean error less the oracle's: the deterministic error each leaves, "
+            "without the noise they share, zoomed to them" if less_oracle else
+            "methods' dwell-mean error, zoomed to them"
+            + ("" if oracle_in or "oracle" not in err else
+               " (the oracle, above, is off this scale)"), fontsize=9)
+    axes[-1].set_xlabel("dwell (position) number, in time order")
+    files.save_figure(fig, path)
+
+
+def _dwell_errors(it, methods: list[str], bars: bool) -> tuple[dict, dict, bool]:
+    """Each output's dwell-mean error and its standard error, deg/h, and whether the methods'
+    are drawn less the oracle's (beyond DWELL_BARS_MAX dwells, with an oracle)."""
+    p = it.piece
+    err, sem = {}, {}
+    for lab in it.outputs:
+        _, e, se = dwell_means(p.t, it.outputs[lab] - p.truth, p.fs)
+        err[lab], sem[lab] = e / DPH, se / DPH
+    # beyond DWELL_BARS_MAX dwells the methods' noisy means tangle (thermal_with_motion's 133):
+    # their panels draw each method's dwell mean less the oracle's, the deterministic error it
+    # leaves, which holds no noise for a model of the terms (method - oracle = true terms -
+    # the method's estimate; a denoiser's difference also holds the noise it took out)
+    less_oracle = not bars and "oracle" in err and bool(methods)
+    if less_oracle:
+        err = {lab: (e - err["oracle"] if lab in methods else e) for lab, e in err.items()}
+    return err, sem, less_oracle
+
+
+def _panel_dwell_rates(ax, it, x, truth_mean, draw, bars: bool) -> None:
+    """fig_dwells' top panel: the true rate of each dwell (the positions) and raw's dwell
+    means, deg/h."""
+    p = it.piece
+    k = truth_mean.size
     ax.plot(x, truth_mean / DPH, "_", color=COLORS["truth"], ms=max(4, min(18, 500 // k)),
             mew=2, label="truth", zorder=10)
     if "raw" in it.outputs:
@@ -384,7 +447,10 @@ def fig_dwells(it, path: Path, plan=None) -> None:
                  + ("bars: standard error of the mean)" if bars else
                     f"more than {DWELL_BARS_MAX}: means joined, no bars)"), fontsize=10)
     ax.legend(**LEGEND)
-    ax = axes[1]
+
+
+def _panel_dwell_refs(ax, err: dict, sem: dict, draw, bars: bool) -> None:
+    """fig_dwells' second panel: raw's and the oracle's dwell-mean errors, side by side."""
     refs = [lab for lab in ("raw", "oracle") if lab in err]
     width = 0.3 if bars else 0.0
     for i, lab in enumerate(refs):
@@ -392,28 +458,23 @@ def fig_dwells(it, path: Path, plan=None) -> None:
     ax.axhline(0.0, color="0.7", lw=0.5)
     ax.set_ylabel("dwell mean error,\ndeg/h", fontsize=9)
     ax.legend(**LEGEND)
-    pad = 0.08 * max(hi - lo, 1e-12)
-    for ax, chunk in zip(axes[2:], panels):
-        shown = (["oracle"] if oracle_in else []) + [m for e in chunk for m in e["members"]]
-        width = 0.7 / max(1, len(shown)) if bars else 0.0
-        for i, lab in enumerate(shown):
-            draw(ax, lab, err[lab], sem[lab], (i - (len(shown) - 1) / 2) * width)
-        if less_oracle:
-            ax.axhline(0.0, color=COLORS["oracle"], lw=1.2, zorder=1.5,
-                       label="oracle (0: what is taken out)")
-        else:
-            ax.axhline(0.0, color="0.7", lw=0.5)
-        ax.set_ylim(min(lo, o_lo if oracle_in else lo) - pad,
-                    max(hi, o_hi if oracle_in else hi) + pad)
-        ax.set_ylabel("dwell mean error\n- oracle's, deg/h" if less_oracle else
-                      "dwell mean error,\ndeg/h", fontsize=9)
-        ax.legend(**LEGEND)
-    if len(axes) > 2:
-        axes[2].set_title(
-            "methods' dwell-mean error less the oracle's: the deterministic error each leaves, "
-            "without the noise they share, zoomed to them" if less_oracle else
-            "methods' dwell-mean error, zoomed to them"
-            + ("" if oracle_in or "oracle" not in err else
-               " (the oracle, above, is off this scale)"), fontsize=9)
-    axes[-1].set_xlabel("dwell (position) number, in time order")
-    files.save_figure(fig, path)
+
+
+def _panel_dwell_methods(ax, chunk: list[dict], err: dict, sem: dict, draw, bars: bool,
+                         oracle_in: bool, less_oracle: bool, ylim: tuple) -> None:
+    """One of fig_dwells' methods' panels: the chunk's dwell-mean errors side by side (the
+    oracle first when it is in), on the shared zoom ``ylim``; less the oracle's, the oracle
+    is the zero line."""
+    shown = (["oracle"] if oracle_in else []) + [m for e in chunk for m in e["members"]]
+    width = 0.7 / max(1, len(shown)) if bars else 0.0
+    for i, lab in enumerate(shown):
+        draw(ax, lab, err[lab], sem[lab], (i - (len(shown) - 1) / 2) * width)
+    if less_oracle:
+        ax.axhline(0.0, color=COLORS["oracle"], lw=1.2, zorder=1.5,
+                   label="oracle (0: what is taken out)")
+    else:
+        ax.axhline(0.0, color="0.7", lw=0.5)
+    ax.set_ylim(*ylim)
+    ax.set_ylabel("dwell mean error\n- oracle's, deg/h" if less_oracle else
+                  "dwell mean error,\ndeg/h", fontsize=9)
+    ax.legend(**LEGEND)

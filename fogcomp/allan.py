@@ -620,6 +620,9 @@ def allan_analysis(rate, fs: float, taus=None, *, ci: float = ONE_SIGMA_CI, mode
     y = _check_rate(rate)
     fs = _check_fs(fs)
     segs = [(0, y.shape[0])] if segments is None else [(int(a), int(b)) for a, b in segments]
+    # A piece of fewer than 3 samples holds no second difference at any averaging time: it
+    # adds nothing to the curve or its degrees of freedom, and is left out here.
+    segs = [(a, b) for a, b in segs if b - a >= 3] or segs
     lengths = [b - a for a, b in segs]
     longest = max(lengths)
     if longest < 8:

@@ -48,6 +48,11 @@ _HEADER = re.compile(r"^(gyro|acc|accel)_([xyz])(?:_(.*))?$")
 #: terms' slopes can be told apart.
 MIN_RECORD_SAMPLES = 64
 
+#: Fewest samples a gap-free piece needs to count (``--gaps split``): the shortest averaging
+#: time, one sample interval, takes one second difference, of 3 samples. A shorter piece holds
+#: no term of any averaging time; it is left out, and a note on stderr counts what was.
+MIN_PIECE = 3
+
 #: Largest magnitude a channel in a physical unit may reach, SI: (warn beyond, refuse beyond).
 #: Rates: the widest-range gyros (projectile IMUs) measure about 20,000 deg/s; 10^6 deg/s (2,800
 #: revolutions per second) is no measurement at all. Specific force: IMU accelerometers reach
@@ -131,7 +136,10 @@ class Log:
         """One line: samples, the sample rate used (Hz) and the sampled duration (s, h), so a
         time column in the wrong unit shows at once."""
         d = self.n / self.fs
+        kept = sum(b - a for a, b in self.segments) if self.segments else self.n
         pieces = f" in {len(self.segments)} gap-free pieces" if len(self.segments) > 1 else ""
+        if kept != self.n:
+            pieces += f" ({kept} of them analysed{'' if pieces else ', in one piece'})"
         where = f" ({self.origin})" if self.origin else ""
         return (f"{self.path}{where}: {self.n} samples at {self.fs:.6g} Hz (interval "
                 f"{1.0 / self.fs:.6g} s), {d:.6g} s = {d / 3600:.3g} h{pieces}")
@@ -213,7 +221,7 @@ def numeric(path, frame, column: str, first_line: Rows) -> np.ndarray:
 
 
 def read_log(path, *, mapping=None, channels=None, fs=None, gaps: str = "refuse",
-             time_tolerance: float = 0.05, min_samples: int = 2,
+             time_tolerance: float = 0.05, min_samples: int = 2, min_piece: int = MIN_PIECE,
              fs_is_fallback: bool = False, model_mapping: dict | None = None,
              model_file=None, fmt: str | None = None, topic: str | None = None) -> Log:
     """Read and validate a log (see the module docstring).
@@ -230,13 +238,18 @@ def read_log(path, *, mapping=None, channels=None, fs=None, gaps: str = "refuse"
     fs : float, optional
         Sample rate, Hz; required when there is no time column, checked against it otherwise.
     gaps : {"refuse", "split"}
-        What to do with a gap in the time column (an interval more than 1.5 median intervals):
-        refuse the file, or cut it into gap-free segments.
+        What to do with an interval more than ``time_tolerance`` off the median one (a gap,
+        more than 1.5 median intervals, or a jitter): refuse the file, or cut it there into
+        gap-free segments (analysed together by the pooled Allan deviation).
     time_tolerance : float
-        Largest relative departure of a sample interval from the median one that is not a gap
-        (default 0.05).
+        Largest relative departure of a sample interval from the median one that is not a cut
+        (default 0.05; below 0.5, where a jitter could no longer be told from a dropout).
     min_samples : int
         Fewest samples the command needs (in the longest gap-free segment).
+    min_piece : int
+        Fewest samples of a gap-free piece under ``gaps="split"``: shorter ones are left out
+        of ``segments`` and counted in a note on stderr (default :data:`MIN_PIECE`; 1 keeps
+        every sample, for a command that works sample by sample).
     fs_is_fallback : bool
         ``fs`` is only a stand-in for a log without a time column (not checked against one).
     model_mapping : dict of str to (str, str), optional
@@ -277,7 +290,7 @@ def read_log(path, *, mapping=None, channels=None, fs=None, gaps: str = "refuse"
     segments = [(0, n)]
     if "time" in found:
         fs, segments = _timing(path, frame, found["time"], first_line, fs, fs_is_fallback,
-                               gaps, time_tolerance, min_samples)
+                               gaps, time_tolerance, min_samples, min_piece)
     elif fs is None:
         raise LogError(f"{path}: no time column (time_s) to take the sample rate from; "
                        "give --fs HZ")
@@ -369,7 +382,7 @@ def _wanted(path, frame, channels, found: dict) -> list[str]:
 
 
 def _timing(path, frame, time_col: tuple[str, str], first_line, fs, fs_is_fallback: bool,
-            gaps: str, time_tolerance: float, min_samples: int):
+            gaps: str, time_tolerance: float, min_samples: int, min_piece: int = 1):
     """(sample rate, gap-free pieces) from the time column: increasing, regular within the
     tolerance, gaps refused or split at, and ``--fs`` (unless only a fallback) agreeing."""
     src, unit = time_col
@@ -392,24 +405,43 @@ def _timing(path, frame, time_col: tuple[str, str], first_line, fs, fs_is_fallba
     step = float(np.median(dt))
     fs_t = 1.0 / step
     gap = dt > 1.5 * step
-    irregular = (np.abs(dt / step - 1.0) > time_tolerance) & ~gap
-    if irregular.any():
-        i = int(np.flatnonzero(irregular)[0])
-        raise LogError(f"{path}: {first_line(i + 1)}, column {src!r}: irregular "
-                       f"sampling, interval {dt[i]:.6g} s vs median {step:.6g} s (more "
-                       f"than {time_tolerance:.0%} off; {int(irregular.sum())} such "
-                       "intervals); resample the log or raise --time-tolerance")
-    if gap.any():
-        i = int(np.flatnonzero(gap)[0])
+    # Beyond the tolerance, an interval breaks the equal spacing the Allan deviation assumes,
+    # whether samples are missing (a dropout, more than 1.5 median intervals) or not (a
+    # jitter): refused, or under --gaps split a cut like any gap.
+    off = np.abs(dt / step - 1.0) > time_tolerance
+    if off.any():
+        i = int(np.flatnonzero(off)[0])
         if gaps == "refuse":
-            raise LogError(f"{path}: {first_line(i + 1)}, column {src!r}: gap of "
-                           f"{dt[i]:.6g} s ({dt[i] / step - 1:.0f} missing samples at "
-                           f"{step:.6g} s) after time {t[i]:.10g}; {int(gap.sum())} gap(s) "
-                           "in all; use --gaps split to analyse the pieces separately")
-        cuts = np.flatnonzero(gap) + 1
+            raise LogError(f"{path}: {first_line(i + 1)}, column {src!r}: "
+                           + _off_message(t, dt, i, step, gap, off, time_tolerance))
+        cuts = np.flatnonzero(off) + 1
         bounds = [0, *cuts.tolist(), n]
         segments = [(a, b) for a, b in zip(bounds[:-1], bounds[1:])]
-    # The mean interval of the longest gap-free piece: far less sensitive than the median
+        kept = [(a, b) for a, b in segments if b - a >= min_piece]
+        if len(kept) < len(segments):
+            short = [b - a for a, b in segments if b - a < min_piece]
+            from fogbench.console import note
+
+            note(f"{path}: {_count(len(short), 'piece')} of {len(segments)} left out, "
+                 f"{_count(sum(short), 'sample')} in all: the pieces between its "
+                 f"{_count(int(off.sum()), 'cut')} (intervals more than {time_tolerance:.0%} "
+                 f"off the median) shorter than {min_piece} samples, the fewest the shortest "
+                 f"averaging time (one interval) needs; {_count(len(kept), 'piece')} of "
+                 f"{_count(sum(b - a for a, b in kept), 'sample')} analysed together")
+        if not kept:
+            raise LogError(f"{path}: column {src!r}: no piece of {min_piece} samples or more "
+                           f"between its {int(off.sum())} intervals more than "
+                           f"{time_tolerance:.0%} off the median {step:.6g} s"
+                           + _jitter_advice(dt, step, gap, off, time_tolerance))
+        segments = kept
+        longest = max(b - a for a, b in kept)
+        if longest < min_samples:
+            raise LogError(f"{path}: record too short: {longest} samples in its longest "
+                           f"gap-free piece, this command needs at least {min_samples} (its "
+                           f"{int(off.sum())} intervals more than {time_tolerance:.0%} off the "
+                           f"median {step:.6g} s are cuts)"
+                           + _jitter_advice(dt, step, gap, off, time_tolerance))
+    # The mean interval of the longest gap-free piece    # The mean interval of the longest gap-free piece: far less sensitive than the median
     # to timestamps rounded to a few decimals.
     a0, b0 = max(segments, key=lambda ab: ab[1] - ab[0])
     if b0 - a0 >= 2:
@@ -418,6 +450,53 @@ def _timing(path, frame, time_col: tuple[str, str], first_line, fs, fs_is_fallba
         raise LogError(f"{path}: --fs {fs:g} Hz disagrees with the time column "
                        f"{src!r}, which gives {fs_t:.6g} Hz")
     return fs_t, segments
+
+
+def _count(k: int, word: str) -> str:
+    return f"{k} {word}" + ("" if k == 1 else "s")
+
+
+def _needed_tolerance(dt, step, gap) -> float | None:
+    """The smallest tolerance (in hundredths, below 0.5) that takes every interval short of a
+    gap as regular, or None when none below 0.5 does."""
+    jitter = np.abs(dt[~gap] / step - 1.0)
+    if not jitter.size:
+        return None
+    need = math.floor(float(jitter.max()) * 100.0 + 1.0) / 100.0
+    return need if need < 0.5 else None
+
+
+def _jitter_advice(dt, step, gap, off, time_tolerance: float) -> str:
+    """'; ... --time-tolerance T keeps them inside the pieces' when some of the cuts are
+    jitter (an interval within 1.5 median ones: no sample missing) a tolerance below 0.5
+    accepts, else ''."""
+    jitter = off & ~gap
+    need = _needed_tolerance(dt, step, gap)
+    if not jitter.any() or need is None:
+        return ""
+    return (f"; {int(jitter.sum())} of them are jitter, not dropouts (under 1.5 intervals, "
+            f"no sample missing): --time-tolerance {need:g} keeps them inside the pieces")
+
+
+def _off_message(t, dt, i: int, step: float, gap, off, time_tolerance: float) -> str:
+    """What is wrong with the time column at interval ``i`` (the first beyond the tolerance) and
+    what to do: the --gaps refuse error's text after the file and row."""
+    if gap[i]:
+        head = (f"gap of {dt[i]:.6g} s ({dt[i] / step - 1:.0f} missing samples at {step:.6g} s) "
+                f"after time {t[i]:.10g}")
+    else:
+        head = (f"irregular sampling, interval {dt[i]:.6g} s vs median {step:.6g} s (more than "
+                f"{time_tolerance:.0%} off)")
+    n_gap, n_jit = int(gap.sum()), int((off & ~gap).sum())
+    counts = ", ".join(x for x in (f"{n_gap} gap(s) of more than 1.5 intervals" if n_gap else "",
+                                   f"{n_jit} jitter(s) more than {time_tolerance:.0%} off"
+                                   if n_jit else "") if x)
+    need = _needed_tolerance(dt, step, gap)
+    advice = "use --gaps split to cut the log at each of them and analyse the pieces together"
+    if n_jit and need is not None:
+        advice += (f"; --time-tolerance {need:g} takes the jitter as regular"
+                   + (" (the gaps still need --gaps split)" if n_gap else ""))
+    return f"{head}; {counts} in all; {advice}"
 
 
 #: Sample rates of IMU and gyro logs (a FOG's thermal log at 1 Hz, a MEMS part at some kHz);

@@ -14,8 +14,10 @@ rate") and once per 100 ms in the sensor-comparison and thermal-calibration prof
 decimated record, whose Allan noise density N comes out sqrt(full rate / logged rate) times too
 high (16x at 1 Hz of 250 Hz). The choice and its reason are said on stderr; a topic that looks
 decimated (below 90 Hz, or messages further apart than ``gyro_integral_dt``, the time each
-covers) is warned of. Two topics equally fast: ``sensor_combined`` (the IMU PX4's estimator
-uses) when it is one of them, else refused with the list.
+covers: a float32 in seconds in older firmware, a uint32 in microseconds since, read by its
+type) is warned of, with advice true for the log (never to read the topic being read). Two
+topics equally fast: ``sensor_combined`` (the IMU PX4's estimator uses) when it is one of them,
+else refused with the list.
 
 A file that ends inside a message (a log cut by a power loss, a full card, a copy stopped
 early) is read up to there and warned of, with the count of messages read; so is a file
@@ -37,7 +39,7 @@ import numpy as np
 
 from fogbench.formats.detect import Rows
 
-__all__ = ["read_ulog", "TOPICS"]
+__all__ = ["read_ulog", "TOPICS", "integral_dt_us"]
 
 TOPICS = ("sensor_gyro", "sensor_combined")
 
@@ -82,12 +84,39 @@ def _decimated(name: str, d, rate: float) -> str | None:
         return (f"{_hz(rate)}, slower than PX4 publishes any IMU topic (sensor_combined at "
                 "IMU_INTEG_RATE, 100 Hz or more)")
     if name == "sensor_combined" and "gyro_integral_dt" in d.data:
-        dt = np.asarray(d.data["gyro_integral_dt"], dtype=float)
+        dt = integral_dt_us(d.data["gyro_integral_dt"])
         dt = dt[dt > 0]
         if dt.size and 1e6 / rate > 1.5 * float(np.median(dt)):
             return (f"a message every {1e3 / rate:.3g} ms, each covering "
                     f"{float(np.median(dt)) / 1e3:.3g} ms (gyro_integral_dt)")
     return None
+
+
+def integral_dt_us(values) -> np.ndarray:
+    """``gyro_integral_dt`` in microseconds, read as the firmware wrote it: by the field's type
+    in the ULog's own format message. PX4's ``sensor_combined.msg`` declared it ``float32`` in
+    seconds in older firmware (``sample.ulg``: 0.004) and ``uint32`` in microseconds since
+    (``sample_log_small.ulg``: 4888); pyulog keeps the type (a float32 or a uint32 array)."""
+    v = np.asarray(values)
+    if v.dtype.kind == "f":
+        return v.astype(float) * 1e6
+    return v.astype(float)
+
+
+def _decimation_advice(path, topic: str, base: str, found: dict, rates: dict) -> str:
+    """What to do about a decimated topic, true for the log at hand: never to read the topic
+    being read."""
+    log_it = ("log the topic at full rate (PX4's logger: SDLOG_PROFILE, or a custom "
+              "etc/logging/logger_topics.txt naming it with interval 0)")
+    faster = sorted((n for n in found if n != topic and rates[n] > 1.5 * rates[topic]),
+                    key=lambda n: -rates[n])
+    if faster:
+        return (f"read {faster[0]} ({_hz(rates[faster[0]])} in this log) with --topic "
+                f"{faster[0]}, or {log_it}")
+    if base == "sensor_gyro":
+        return (f"{log_it}; PX4's default profile logs sensor_gyro at 1 Hz and sensor_combined "
+                "at full rate")
+    return log_it
 
 
 def _choose(path, found: dict, rates: dict) -> tuple[str, str]:
@@ -202,9 +231,8 @@ def read_ulog(path, topic: str | None):
     if why:
         warnings.warn(f"{path}: topic {topic} looks decimated ({why}): the logger kept only "
                       "some of its messages, so the Allan noise density N comes out about "
-                      "sqrt(full rate / logged rate) times too high; read sensor_combined, or "
-                      "log the topic at full rate (PX4's default profile logs sensor_gyro at "
-                      "1 Hz)", stacklevel=2)
+                      "sqrt(full rate / logged rate) times too high; "
+                      + _decimation_advice(path, topic, base, found, rates), stacklevel=2)
     tkey = _time_key(d)
     frame = pd.DataFrame({f"{base}.{tkey} [us]": np.asarray(d.data[tkey], dtype=np.int64)})
     if base == "sensor_gyro":

@@ -168,7 +168,7 @@ def _apply_triad(opts: CompensateOptions, doc: dict, mpath: Path):
     log = read_log(opts.log, fmt=opts.format, topic=opts.topic, mapping=opts.column,
                    channels=chans, fs=opts.fs if opts.fs else float(doc["fs_hz"]),
                    fs_is_fallback=not opts.fs, gaps=opts.gaps,
-                   time_tolerance=opts.time_tolerance, min_samples=1,
+                   time_tolerance=opts.time_tolerance, min_samples=1, min_piece=1,
                    model_mapping=from_model, model_file=mpath)
     note(log.describe())
     for ch in chans:
@@ -198,7 +198,7 @@ def _apply_axis_models(opts: CompensateOptions, doc: dict, mpath: Path):
         need += ["acc_x", "acc_y", "acc_z"]
     if reqs & {"temp", "temp_rate"}:
         need += ["temp"]
-    log = opts.read(opts.log, need, min_samples=2)
+    log = opts.read(opts.log, need, min_samples=2, min_piece=1)
     note(log.describe())
     if abs(log.fs / float(doc["fs_hz"]) - 1.0) > 1e-6:
         raise LogError(f"{opts.log}: sample rate {log.fs:g} Hz differs from the "

@@ -106,10 +106,12 @@ def _checked_curve(taus, avar, fs, n):
         raise ValueError(f"fs: sample rate must be a positive finite number in Hz, got {fs!r}")
     fs = float(fs)
     segs = (n,) if isinstance(n, (int, np.integer)) and not isinstance(n, bool) else tuple(n)
-    if not segs or any(isinstance(s, bool) or not isinstance(s, (int, np.integer)) or s < 8
-                       for s in segs):
+    # A piece of 3 samples holds one term at the shortest averaging time; the longest must
+    # give the 3 octave averaging times a fit needs (8 samples).
+    if not segs or any(isinstance(s, bool) or not isinstance(s, (int, np.integer)) or s < 3
+                       for s in segs) or max(segs) < 8:
         raise ValueError(f"n: expected the number of samples (an integer >= 8) or one per "
-                         f"gap-free segment, got {n!r}")
+                         f"gap-free segment (each >= 3, the longest >= 8), got {n!r}")
     segs = tuple(int(s) for s in segs)
     t = np.asarray(taus, dtype=float)
     v = np.asarray(avar, dtype=float)

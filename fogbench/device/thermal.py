@@ -164,45 +164,54 @@ def fit_thermal(log: ThermalLog, noise, ci: float) -> dict:
 
     dof = yb.size - 6                  # five coefficients and the lag
     joint = 0.5 * (1.0 + ci)           # lag region and coefficient intervals each (Bonferroni)
-    coarse = LAG_GRID_S
-    chi = profile(coarse)
-    i, lo_i, hi_i = region(coarse, chi, joint)
-    # refined between the coarse points that bracket the region (a step of 1.2 % in tau)
-    a, b = coarse[max(lo_i - 1, 0)], coarse[min(hi_i + 1, coarse.size - 1)]
-    fine = np.concatenate([[0.0] if a == 0.0 else [],
-                           np.geomspace(max(a, LAG_GRID_S[1]), b, max(8, int(
-                               math.log(b / max(a, LAG_GRID_S[1])) / 0.012)))])
-    grid = np.unique(np.concatenate([coarse, fine]))
+    chi = profile(LAG_GRID_S)
+    grid = _refined_lag_grid(*region(LAG_GRID_S, chi, joint)[1:])
     chi = profile(grid)
     i, lo_i, hi_i = region(grid, chi, joint)
-    scale = max(chi[i] / dof, 1.0)
-    LAG = grid
-    z = float(norm.ppf(0.5 + joint / 2))
-    (wX,) = white([LAG[i]])
+    (wX,) = white([grid[i]])
     # collinearity of the weighted columns scaled to unit length: about 3 for the holds and
     # ramps both ways of tests/device/test_device.py, 600 to 1e15 for a single ramp
     if np.linalg.cond(wX / np.linalg.norm(wX, axis=0)) > MAX_CONDITION:
         raise ValueError(f"{log.name}: the temperature program cannot separate the terms (T, "
                          "T^2, dT/dt, T dT/dt: a single ramp moves T and dT/dt together); "
                          "record holds and ramps both ways")
-    # the coefficients' intervals: the union over every lag the residual does not reject
-    # (the lag is a nuisance the record may hardly determine; an interval at the best lag alone
-    # would be far too narrow where the profile is flat)
-    est, lows, highs = None, np.full(5, np.inf), np.full(5, -np.inf)
-    for j in range(lo_i, hi_i + 1):
-        (wX,) = white([LAG[j]])
-        beta, *_ = np.linalg.lstsq(wX, wy, rcond=None)
-        sd = np.sqrt(np.maximum(np.diag(np.linalg.inv(wX.T @ wX) * scale), 0.0))
-        lows, highs = np.minimum(lows, beta - z * sd), np.maximum(highs, beta + z * sd)
-        if j == i:
-            est = beta
-    tau = float(LAG[i])
+    est, lows, highs = _coefficient_intervals(white, wy, grid, (lo_i, i, hi_i),
+                                              max(chi[i] / dof, 1.0),
+                                              float(norm.ppf(0.5 + joint / 2)))
     out = {"bias_at_ref_dph": (est[0] / DPH, lows[0] / DPH, highs[0] / DPH),
            "chi2_per_dof": chi[i] / dof, "block_s": h}
     for j, (key, unit) in enumerate(KEYS, start=1):
         out[key] = (est[j] / unit, lows[j] / unit, highs[j] / unit)
     _, lo_c, hi_c = region(grid, chi, ci)      # the lag's own interval, at ci
-    out["lag"] = (tau, float(LAG[lo_c]), float(LAG[hi_c]), hi_c < LAG.size - 1)
+    out["lag"] = (float(grid[i]), float(grid[lo_c]), float(grid[hi_c]), hi_c < grid.size - 1)
     _, lo95, hi95 = region(grid, chi, 0.95)     # where the sensor is: decided at 95 %
-    out["lag95"] = (float(LAG[lo95]), float(LAG[hi95]), hi95 < LAG.size - 1)
+    out["lag95"] = (float(grid[lo95]), float(grid[hi95]), hi95 < grid.size - 1)
     return out
+
+
+def _refined_lag_grid(lo_i: int, hi_i: int) -> np.ndarray:
+    """The coarse lag grid refined between the coarse points that bracket the region
+    ``[lo_i, hi_i]`` of the coarse profile (a step of 1.2 % in tau)."""
+    coarse = LAG_GRID_S
+    a, b = coarse[max(lo_i - 1, 0)], coarse[min(hi_i + 1, coarse.size - 1)]
+    fine = np.concatenate([[0.0] if a == 0.0 else [],
+                           np.geomspace(max(a, LAG_GRID_S[1]), b, max(8, int(
+                               math.log(b / max(a, LAG_GRID_S[1])) / 0.012)))])
+    return np.unique(np.concatenate([coarse, fine]))
+
+
+def _coefficient_intervals(white, wy, grid, where, scale: float, z: float):
+    """The coefficients at the best lag and their intervals: the union over every lag the
+    residual does not reject (the lag is a nuisance the record may hardly determine; an
+    interval at the best lag alone would be far too narrow where the profile is flat).
+    ``where``: (first lag of the region, best lag, last lag), indices into ``grid``."""
+    lo_i, i, hi_i = where
+    est, lows, highs = None, np.full(5, np.inf), np.full(5, -np.inf)
+    for j in range(lo_i, hi_i + 1):
+        (wX,) = white([grid[j]])
+        beta, *_ = np.linalg.lstsq(wX, wy, rcond=None)
+        sd = np.sqrt(np.maximum(np.diag(np.linalg.inv(wX.T @ wX) * scale), 0.0))
+        lows, highs = np.minimum(lows, beta - z * sd), np.maximum(highs, beta + z * sd)
+        if j == i:
+            est = beta
+    return est, lows, highs

@@ -171,7 +171,33 @@ def _ends_inside_a_message(buf) -> bool:
 
 def read_ulog(path, topic: str | None):
     """(frame, Rows, description) of a ULog's gyro topic."""
-    import pandas as pd
+    ulog, unzipped = _open_ulog(path)
+    found = {}
+    for d in ulog.data_list:
+        name = d.name if d.multi_id == 0 else f"{d.name}:{d.multi_id}"
+        if d.name in TOPICS and len(d.data.get("timestamp", ())):
+            found[name] = d
+    if not found:
+        raise _error(f"{path}: no gyro data (no sensor_gyro or sensor_combined messages); "
+                     "PX4's default logging profile records sensor_combined at full rate "
+                     "(a custom etc/logging/logger_topics.txt must name it)")
+    rates = {n: _rate(d) for n, d in found.items()}
+    if topic is None:
+        topic, why = _choose(path, found, rates)
+        _note(f"{path}: topic {topic} read: {why}"
+              + ("; --topic chooses another" if len(found) > 1 else ""))
+    if topic not in found:
+        raise _error(f"{path}: no topic {topic!r} with data; gyro topics: "
+                     f"{', '.join(sorted(found))}")
+    d = found[topic]
+    _warn_of_damage(path, ulog, d, topic, unzipped, found, rates)
+    frame = _gyro_frame(path, d, topic)
+    return frame, Rows(what=topic), f"topic {topic}"
+
+
+def _open_ulog(path):
+    """(pyulog's ULog of the gyro topics, the unzipped bytes or None): a missing, unreadable
+    or damaged file refused naming it."""
     from pyulog import ULog
 
     p = Path(path)
@@ -191,24 +217,13 @@ def read_ulog(path, topic: str | None):
             "not a readable ULog file"
         raise _error(f"{path}: {what} ({type(exc).__name__}: "
                      f"{str(exc).splitlines()[0] if str(exc) else 'no detail'})") from None
-    found = {}
-    for d in ulog.data_list:
-        name = d.name if d.multi_id == 0 else f"{d.name}:{d.multi_id}"
-        if d.name in TOPICS and len(d.data.get("timestamp", ())):
-            found[name] = d
-    if not found:
-        raise _error(f"{path}: no gyro data (no sensor_gyro or sensor_combined messages); "
-                     "PX4's default logging profile records sensor_combined at full rate "
-                     "(a custom etc/logging/logger_topics.txt must name it)")
-    rates = {n: _rate(d) for n, d in found.items()}
-    if topic is None:
-        topic, why = _choose(path, found, rates)
-        _note(f"{path}: topic {topic} read: {why}"
-              + ("; --topic chooses another" if len(found) > 1 else ""))
-    if topic not in found:
-        raise _error(f"{path}: no topic {topic!r} with data; gyro topics: "
-                     f"{', '.join(sorted(found))}")
-    d = found[topic]
+    return ulog, unzipped
+
+
+def _warn_of_damage(path, ulog, d, topic: str, unzipped, found, rates) -> None:
+    """Warnings of a file cut inside a message, of data pyulog skipped, and of a topic the
+    logger decimated."""
+    p = Path(path)
     base = d.name
     count = len(d.data["timestamp"])
     if unzipped is not None:
@@ -223,16 +238,24 @@ def read_ulog(path, topic: str | None):
     if cut:
         warnings.warn(f"{path}: truncated: the file ends inside a message (a log cut by a "
                       "power loss, a full card or a copy stopped early); read up to there: "
-                      f"{count} messages of {topic}", stacklevel=2)
+                      f"{count} messages of {topic}", stacklevel=3)
     if ulog.file_corruption:
         warnings.warn(f"{path}: damaged: pyulog skipped data it could not read (its "
-                      f"file_corruption flag); {count} messages of {topic} read", stacklevel=2)
+                      f"file_corruption flag); {count} messages of {topic} read", stacklevel=3)
     why = _decimated(base, d, rates[topic])
     if why:
         warnings.warn(f"{path}: topic {topic} looks decimated ({why}): the logger kept only "
                       "some of its messages, so the Allan noise density N comes out about "
                       "sqrt(full rate / logged rate) times too high; "
-                      + _decimation_advice(path, topic, base, found, rates), stacklevel=2)
+                      + _decimation_advice(path, topic, base, found, rates), stacklevel=3)
+
+
+def _gyro_frame(path, d, topic: str):
+    """The topic's time, gyro (and accelerometer or temperature) columns as a frame, each
+    column named with its unit."""
+    import pandas as pd
+
+    base = d.name
     tkey = _time_key(d)
     frame = pd.DataFrame({f"{base}.{tkey} [us]": np.asarray(d.data[tkey], dtype=np.int64)})
     if base == "sensor_gyro":
@@ -254,4 +277,4 @@ def read_ulog(path, topic: str | None):
         temp = np.asarray(d.data["temperature"], dtype=float)
         if np.isfinite(temp).all():
             frame[f"{base}.temperature [C]"] = temp
-    return frame, Rows(what=topic), f"topic {topic}"
+    return frame

@@ -43,7 +43,7 @@ def _read_thermal(path, opts):
     from fogbench.device.thermal import ThermalLog
 
     chans = [f"gyro_{opts.axis}" if opts.axis else "gyro_*", "temp"]
-    log = opts.read(path, chans, gaps="refuse")
+    log = opts.read(path, chans, gaps="continuous")
     ch = _channel(log, opts.axis, path)
     if log.units[ch] == "au":
         raise LogError(f"{path}: column {log.sources[ch]!r} is in raw counts (au); a device "
@@ -68,7 +68,7 @@ def _read_multipos(path, opts):
 
     _check_reference_flag(opts.reference)
     chans = [f"gyro_{opts.axis}" if opts.axis else "gyro_*", "acc_x", "acc_y", "acc_z"]
-    log = opts.read(path, chans, gaps="refuse")
+    log = opts.read(path, chans, gaps="continuous")
     ch = _channel(log, opts.axis, path)
     for c in [ch] + [f"acc_{a}" for a in "xyz"]:
         if log.units[c] == "au":

@@ -237,10 +237,12 @@ def read_log(path, *, mapping=None, channels=None, fs=None, gaps: str = "refuse"
         None: every channel the header names. Each must be present.
     fs : float, optional
         Sample rate, Hz; required when there is no time column, checked against it otherwise.
-    gaps : {"refuse", "split"}
+    gaps : {"refuse", "split", "continuous"}
         What to do with an interval more than ``time_tolerance`` off the median one (a gap,
         more than 1.5 median intervals, or a jitter): refuse the file, or cut it there into
-        gap-free segments (analysed together by the pooled Allan deviation).
+        gap-free segments (analysed together by the pooled Allan deviation); "continuous":
+        refuse it, for a command that needs one record (its message does not offer
+        ``--gaps split``).
     time_tolerance : float
         Largest relative departure of a sample interval from the median one that is not a cut
         (default 0.05; below 0.5, where a jitter could no longer be told from a dropout).
@@ -306,7 +308,7 @@ def read_log(path, *, mapping=None, channels=None, fs=None, gaps: str = "refuse"
 
 def _check_options(gaps: str, time_tolerance: float, fs) -> None:
     """--gaps, --time-tolerance and --fs checked before the file is read."""
-    if gaps not in ("refuse", "split"):
+    if gaps not in ("refuse", "split", "continuous"):
         raise LogError(f"--gaps: expected 'refuse' or 'split', got {gaps!r}")
     if not (math.isfinite(time_tolerance) and 0 < time_tolerance < 0.5):
         raise LogError(f"--time-tolerance: expected a fraction between 0 and 0.5, got "
@@ -411,9 +413,10 @@ def _timing(path, frame, time_col: tuple[str, str], first_line, fs, fs_is_fallba
     off = np.abs(dt / step - 1.0) > time_tolerance
     if off.any():
         i = int(np.flatnonzero(off)[0])
-        if gaps == "refuse":
+        if gaps != "split":
             raise LogError(f"{path}: {first_line(i + 1)}, column {src!r}: "
-                           + _off_message(t, dt, i, step, gap, off, time_tolerance))
+                           + _off_message(t, dt, i, step, gap, off, time_tolerance,
+                                          can_split=gaps == "refuse"))
         cuts = np.flatnonzero(off) + 1
         bounds = [0, *cuts.tolist(), n]
         segments = [(a, b) for a, b in zip(bounds[:-1], bounds[1:])]
@@ -478,9 +481,11 @@ def _jitter_advice(dt, step, gap, off, time_tolerance: float) -> str:
             f"no sample missing): --time-tolerance {need:g} keeps them inside the pieces")
 
 
-def _off_message(t, dt, i: int, step: float, gap, off, time_tolerance: float) -> str:
+def _off_message(t, dt, i: int, step: float, gap, off, time_tolerance: float,
+                 can_split: bool = True) -> str:
     """What is wrong with the time column at interval ``i`` (the first beyond the tolerance) and
-    what to do: the --gaps refuse error's text after the file and row."""
+    what to do: the --gaps refuse error's text after the file and row (``can_split`` False: a
+    command that needs one continuous record, which --gaps split cannot give)."""
     if gap[i]:
         head = (f"gap of {dt[i]:.6g} s ({dt[i] / step - 1:.0f} missing samples at {step:.6g} s) "
                 f"after time {t[i]:.10g}")
@@ -492,10 +497,16 @@ def _off_message(t, dt, i: int, step: float, gap, off, time_tolerance: float) ->
                                    f"{n_jit} jitter(s) more than {time_tolerance:.0%} off"
                                    if n_jit else "") if x)
     need = _needed_tolerance(dt, step, gap)
-    advice = "use --gaps split to cut the log at each of them and analyse the pieces together"
+    if can_split:
+        advice = "use --gaps split to cut the log at each of them and analyse the pieces together"
+        later = " (the gaps still need --gaps split)"
+    else:
+        advice = ("this command needs one continuous record: give a gap-free stretch of the "
+                  "log")
+        later = " (the gaps still need a gap-free stretch)"
     if n_jit and need is not None:
         advice += (f"; --time-tolerance {need:g} takes the jitter as regular"
-                   + (" (the gaps still need --gaps split)" if n_gap else ""))
+                   + (later if n_gap else ""))
     return f"{head}; {counts} in all; {advice}"
 
 

@@ -339,7 +339,7 @@ def _calibrate_ferraris(opts, out: _Outputs, manifest: Path) -> int:
                        "(signed by the right-hand rule; imucal's default is -360)")
     tools = _intrinsics_targets(out, opts)
     chans = [f"{k}_{a}" for k in ("acc", "gyro") for a in "xyz"]
-    log = opts.read(opts.log, chans, gaps="refuse", min_samples=2)
+    log = opts.read(opts.log, chans, gaps="continuous", min_samples=2)
     note(log.describe())
     raw = [ch for ch in chans if log.units[ch] == "au"]
     if tools and raw:

@@ -793,3 +793,21 @@ def test_a_six_position_test_recovers_d1(tmp_path):
     note = next(n for n in fit.notes if "not identifiable from its attitudes" in n)
     assert "fx^2 (confounded with constant, fy^2, fz^2" in note
     assert "fx fy (not excited" in note
+
+
+def test_a_thermal_log_with_a_gap_is_refused_without_offering_a_split(tmp_path):
+    """The thermal fit needs one continuous record (its temperature lag runs through the whole
+    log): a log with a dropout is refused naming the row, and the advice is to give a gap-free
+    stretch, not --gaps split (which the thermal fit cannot take); nothing is written."""
+    rng = np.random.default_rng(0)
+    s = _write_log(tmp_path / "static.csv", rng.standard_normal(4000) * 1e-5, 1.0)
+    t = tmp_path / "thermal.csv"
+    rows = [f"{i:.1f},{1e-3 * rng.standard_normal():.9e},{20 + i / 200:.4f}"
+            for i in range(3000) if not 1000 <= i < 1010]
+    t.write_text("time_s,gyro_z_dps,temp_c\n" + "\n".join(rows) + "\n")
+    dev = tmp_path / "dev.toml"
+    code, out, err = run_cli("device", "fit", "--static", s, "--thermal", t, "--out", dev)
+    line = err.strip().splitlines()[-1]
+    assert code == 2 and str(t) in line and "gap of 11 s" in line, err
+    assert "needs one continuous record" in line and "--gaps split" not in line, line
+    assert not dev.exists()

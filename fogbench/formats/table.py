@@ -279,15 +279,7 @@ def read_log(path, *, mapping=None, channels=None, fs=None, gaps: str = "refuse"
     for ch in [*wanted, *(["time"] if "time" in found else [])]:
         src, unit = found[ch]
         found[ch] = (src, _check_unit(path, ch, src, unit))
-    values, units, sources = {}, {}, {}
-    for ch in wanted:
-        src, unit = found[ch]
-        v = numeric(path, frame, src, first_line)
-        factor = _unit_table(ch)[unit]
-        values[ch] = v if factor is None else v * factor
-        units[ch], sources[ch] = unit, src
-        if factor is not None:
-            _check_magnitude(path, ch, src, unit, values[ch], first_line)
+    values, units, sources = _channel_values(path, frame, wanted, found, first_line)
     n = len(frame)
     segments = [(0, n)]
     if "time" in found:
@@ -304,6 +296,21 @@ def read_log(path, *, mapping=None, channels=None, fs=None, gaps: str = "refuse"
                        + f", this command needs at least {min_samples}")
     return Log(path=str(path), frame=frame, fs=float(fs), channels=values, units=units,
                sources=sources, segments=segments, origin=origin, rows=first_line)
+
+
+def _channel_values(path, frame, wanted, found, first_line):
+    """(values in SI, units as written, source columns) of the ``wanted`` channels, each
+    column numeric and its magnitude plausible for its unit."""
+    values, units, sources = {}, {}, {}
+    for ch in wanted:
+        src, unit = found[ch]
+        v = numeric(path, frame, src, first_line)
+        factor = _unit_table(ch)[unit]
+        values[ch] = v if factor is None else v * factor
+        units[ch], sources[ch] = unit, src
+        if factor is not None:
+            _check_magnitude(path, ch, src, unit, values[ch], first_line)
+    return values, units, sources
 
 
 def _check_options(gaps: str, time_tolerance: float, fs) -> None:

@@ -1,5 +1,6 @@
 """``fogbench check``: scenario files, map files and device files validated whole, nothing
-simulated or written; a folder stands for every ``*.toml`` in it."""
+simulated or written; a folder stands for every ``*.toml`` in it and in its ``maps/`` and
+``devices/`` subfolders."""
 
 from __future__ import annotations
 
@@ -19,7 +20,10 @@ def _expand(paths: list[str]) -> Iterator[tuple[str | None, str | None]]:
     """(file, None) for every file to check, or (None, error) for a folder with none."""
     for path in paths:  # a folder: every scenario file in it (as fogbench suite reads)
         if Path(path).is_dir():
-            found = sorted(Path(path).glob("*.toml"))   # scenarios/devices/ too, by name
+            # its scenario files, and the claim maps and device files of the layout
+            # scenarios/ has (maps/, devices/); not every folder below (a .venv, outputs)
+            found = sorted(Path(path).glob("*.toml")) + sorted(
+                f for sub in ("maps", "devices") for f in (Path(path) / sub).glob("*.toml"))
             if not found:
                 yield None, f"{path}: no scenario file (*.toml) in this folder"
             for f in found:

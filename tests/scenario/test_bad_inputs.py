@@ -113,3 +113,29 @@ def test_a_curve_interval_probability_outside_0_1_is_refused(tmp_path, ci):
     assert code == 2
     assert err.strip().splitlines()[-1].startswith(
         "fogbench: error: --curve-ci: expected the probability content")
+
+
+def test_checking_the_scenarios_folder_checks_its_maps_and_devices_too(tmp_path):
+    """`fogbench check scenarios` reads the layout scenarios/ has: its scenario files, and the
+    claim maps in maps/ and the device files in devices/ (a broken map file there fails the
+    check, naming it); a folder further down (an output, a .venv) is not searched."""
+    from pathlib import Path
+    import shutil
+
+    repo = Path(__file__).resolve().parents[2] / "scenarios"
+    root = tmp_path / "scenarios"
+    (root / "maps").mkdir(parents=True)
+    (root / "devices").mkdir()
+    (root / "out" / "deep").mkdir(parents=True)
+    shutil.copy(repo / "paper000_wnn.toml", root)
+    shutil.copy(repo / "maps" / "paper000_wnn.toml", root / "maps")
+    shutil.copy(repo / "devices" / "adis16405_x.toml", root / "devices")
+    (root / "out" / "deep" / "junk.toml").write_text("not = [toml")
+    code, out, err = run_cli("check", root)
+    assert code == 0, err
+    assert f"{root / 'maps' / 'paper000_wnn.toml'}: ok: claim map" in out
+    assert f"{root / 'devices' / 'adis16405_x.toml'}: ok: device file" in out
+    assert "junk" not in out + err
+    (root / "maps" / "paper000_wnn.toml").write_text("[map]\nreplicates = [")
+    code, out, err = run_cli("check", root)
+    assert code != 0 and str(root / "maps" / "paper000_wnn.toml") in err, (out, err)

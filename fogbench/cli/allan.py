@@ -12,7 +12,8 @@ def add_parser(sub) -> None:
     a = sub.add_parser("allan", help="Allan deviation, confidence intervals and noise "
                               "terms of a gyro log (or of a given curve)")
     a.add_argument("log", nargs="?", help="log CSV (gzip accepted)")
-    a.add_argument("--columns", help="gyro channels to analyse, comma-separated (default all)")
+    a.add_argument("--columns", help="gyro channels to analyse, comma-separated: gyro_x or "
+                   "gyro_x_dps (the unit is the header's; default all)")
     a.add_argument("--out", help="folder for allan.json and one PNG per axis")
     a.add_argument("--curve", help="identify the noise terms of a given curve instead "
                    "(tau_s, adev_<unit>, optional adev_ci_low_<unit>/adev_ci_high_<unit>, "

@@ -379,6 +379,7 @@ def _wanted(path, frame, channels, found: dict) -> list[str]:
                            "gyro_x=HEADER:UNIT")
         i = wanted.index("gyro_*")
         wanted[i:i + 1] = [g for g in gyros if g not in wanted]
+        _note_unread(path, frame, found, gyros)
     if "acc_*?" in wanted:     # every accelerometer channel there is, perhaps none
         i = wanted.index("acc_*?")
         wanted[i:i + 1] = sorted(c for c in found if c.startswith("acc_") and c not in wanted)
@@ -388,6 +389,22 @@ def _wanted(path, frame, channels, found: dict) -> list[str]:
                            f"{next(iter(_unit_table(ch)))}); columns: {', '.join(frame.columns)}"
                            f"; map another name with --column {ch}=HEADER:UNIT")
     return wanted
+
+
+def _note_unread(path, frame, found: dict, gyros: list[str]) -> None:
+    """A note when fewer than three gyro axes are read and the header has numeric columns no
+    channel took: a gyro axis under a name not recognised would otherwise go unanalysed
+    silently."""
+    if len(gyros) >= 3:
+        return
+    used = {src for src, _ in found.values()}
+    unread = [str(c) for c in frame.columns if c not in used and frame[c].dtype.kind in "iuf"]
+    if unread:
+        from fogbench.console import note
+
+        note(f"{path}: gyro axes read: {', '.join(found[g][0] for g in gyros)}; columns not "
+             f"read: {', '.join(unread)} (a gyro axis under another name? map it with "
+             "--column gyro_x=HEADER:UNIT)")
 
 
 def _timing(path, frame, time_col: tuple[str, str], first_line, fs, fs_is_fallback: bool,

@@ -163,10 +163,12 @@ def _read_channels(opts: AllanOptions, with_acc: bool):
     each refused in raw counts or stuck."""
     chans = opts.columns.split(",") if opts.columns else None
     if chans is not None:
-        for c in chans:
-            if not re.fullmatch(r"gyro_[xyz]", c):
+        for i, c in enumerate(chans):
+            m = re.fullmatch(r"(gyro_[xyz])(_[a-z0-9]+)?", c.strip())
+            if not m:
                 raise LogError(f"--columns: {c!r} is not a gyro channel (gyro_x, gyro_y, "
-                               "gyro_z)")
+                               "gyro_z, or a column name such as gyro_x_dps)")
+            chans[i] = m.group(1)     # gyro_x_dps, as the results print it: the channel gyro_x
     log = opts.read(opts.log, (chans or ["gyro_*"]) + (["acc_*?"] if with_acc else []))
     if chans is None:
         chans = sorted(c for c in log.channels if c.startswith("gyro_"))

@@ -767,3 +767,22 @@ def test_a_euroc_header_without_one_of_its_seven_columns_is_refused(tmp_path):
     assert code == 2
     assert "a EuRoC / TUM-VI header without 'w_RS_S_z [rad s^-1]'" in err
     assert not (tmp_path / "a").exists()
+
+
+def test_a_gyro_axis_under_a_name_not_recognised_is_named(tmp_path):
+    """A header with gyro_y_dps, gyro_z_dps and 'GyroX': the two axes are read and the column
+    not read is named with how to map it (it was analysed on two axes without a word); mapped
+    with --column, all three are read and the note is gone."""
+    rng = np.random.default_rng(0)
+    p = tmp_path / "log.csv"
+    p.write_text("time_s,GyroX,gyro_y_dps,gyro_z_dps\n" + "".join(
+        f"{i * 0.01:.2f},{a:.5f},{b:.5f},{c:.5f}\n"
+        for i, (a, b, c) in enumerate(rng.standard_normal((3000, 3)))))
+    code, out, err = run_cli("allan", p)
+    assert code == 0, err
+    assert "columns not read: GyroX" in err and "--column gyro_x=HEADER:UNIT" in err, err
+    assert "gyro_y_dps" in out and "GyroX" not in out
+    assert out.count("fit J =") == 2
+    code, out, err = run_cli("allan", p, "--column", "gyro_x=GyroX:dps")
+    assert code == 0 and "columns not read" not in err, err
+    assert out.count("fit J =") == 3

@@ -436,6 +436,10 @@ def test_allan_refuses_a_stuck_channel(tmp_path):
     assert not (tmp_path / "o").exists()
     code, err = run(["allan", log, "--columns", "gyro_x"])
     assert code == 0, err
+    # the column name the results print (gyro_x_dps) names the same channel; another is refused
+    code, err = run(["allan", log, "--columns", "gyro_x_dps"])
+    assert code == 0, err
+    _refused(["allan", log, "--columns", "gyro_q"], "'gyro_q' is not a gyro channel")
 
 
 def test_one_minimum_record_length_for_allan_and_calibrate(tmp_path):

@@ -84,12 +84,11 @@ def fit_device(static: list, curve=None, earth_rate: float | None = None,
 
     ci = ONE_SIGMA_CI if ci is None else ci
     fit = DeviceFit(ci=ci)
-    model, models, origin = _noise_model(fit, static, curve, ci, min_tau)
+    model, pooled, origin = _noise_model(fit, static, curve, ci, min_tau)
     if model is not None:
         _noise_entries(fit, model, origin, curve[3] if curve is not None else static[0].fs)
     if static:
-        _bias_entries(fit, static, models[max(static, key=lambda s: s.rate.size).name],
-                      earth_rate, ci)
+        _bias_entries(fit, static, pooled, earth_rate, ci)
     if thermal is not None:
         if model is None:
             raise ValueError("--thermal: the fit weighs the thermal log by the noise model of "
@@ -110,9 +109,8 @@ def fit_device(static: list, curve=None, earth_rate: float | None = None,
 
 
 def _noise_model(fit: DeviceFit, static: list, curve, ci: float, min_tau):
-    """(the noise model the file's terms come from, the static logs' models by name, where it
-    comes from): the curve's, else the longest static log's."""
-    from fogcomp.allan import allan_analysis
+    """(the noise model the file's terms come from, the static logs' pooled model, where it
+    comes from): the curve's, else the static logs' pooled."""
     from fogcomp.noise import identify_noise_model
 
     model, origin = None, None
@@ -126,19 +124,45 @@ def _noise_model(fit: DeviceFit, static: list, curve, ci: float, min_tau):
                                      ci=ci)
         origin = f"the Allan curve {name}"
         fit.inputs.append(f"Allan curve {name} ({n} samples at {fs:g} Hz)")
-    models = {}
     for log in static:
         col = f", column {log.column}" if log.column else ""
         fit.inputs.append(f"static log {log.name} ({log.rate.size} samples at {log.fs:g} Hz"
                           f"{col})")
+    pooled = None
     if static:
-        longest = max(static, key=lambda s: s.rate.size)
-        _, models[longest.name] = allan_analysis(
-            longest.rate, longest.fs, _octaves(longest, min_tau), ci=ci,
-            segments=list(longest.segments) or None)
+        pooled, where = _pooled_static_model(fit, static, ci, min_tau)
         if model is None:
-            model, origin = models[longest.name], f"the static log {longest.name}"
-    return model, models, origin
+            model, origin = pooled, where
+    return model, pooled, origin
+
+
+def _pooled_static_model(fit: DeviceFit, static: list, ci: float, min_tau):
+    """The noise model of every static log at the longest one's sample rate, pooled: each
+    log's (and each gap-free piece's) second differences computed inside it and their squares
+    pooled, so each log weighs by its length and the switch-on bias between power-ons drops out
+    (:func:`fogcomp.allan.pooled_oadev`). Returns (model, where it comes from)."""
+    from fogcomp.allan import allan_analysis
+
+    fs = max(static, key=lambda s: s.rate.size).fs
+    pool = [s for s in static if s.fs == fs]
+    left = [s.name for s in static if s.fs != fs]
+    segs, off = [], 0
+    for s in pool:
+        segs += [(off + a, off + b) for a, b in (s.segments or [(0, s.rate.size)])]
+        off += s.rate.size
+    joined = StaticLog("pooled", np.concatenate([s.rate for s in pool]), fs, tuple(segs))
+    _, model = allan_analysis(joined.rate, fs, _octaves(joined, min_tau), ci=ci,
+                              segments=segs)
+    if len(pool) == 1:
+        where = f"the static log {pool[0].name}"
+    else:
+        where = (f"the {len(pool)} static logs pooled ({', '.join(s.name for s in pool)}: "
+                 "each log's second differences inside it, so each weighs by its length and "
+                 "the switch-on bias between them drops out)")
+    if left:
+        fit.notes.append(f"static log(s) at another sample rate than {fs:g} Hz left out of the "
+                         f"noise fit (used for the bias): {', '.join(left)}")
+    return model, where
 
 
 def _bias_entries(fit: DeviceFit, static: list, ref, earth_rate, ci: float) -> None:

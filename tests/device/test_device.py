@@ -811,3 +811,28 @@ def test_a_thermal_log_with_a_gap_is_refused_without_offering_a_split(tmp_path):
     assert code == 2 and str(t) in line and "gap of 11 s" in line, err
     assert "needs one continuous record" in line and "--gaps split" not in line, line
     assert not dev.exists()
+
+
+def test_noise_terms_come_from_every_static_log_pooled():
+    """Eight static power-ons of 2 h at 10 Hz of a gyro with white noise and flicker (ARW
+    0.01 deg/sqrt(h), flicker 0.08 deg/h): the noise terms come from all eight pooled (each
+    log's second differences inside it; the switch-on bias between them drops out), not from
+    the first: the flicker interval is less than half as wide as one log's (1/sqrt(8) for
+    independent logs) and holds 0.08 within 10 %; the file says the logs were pooled. Measured
+    over 10 seeds: identified in 10 (one log: 9), median 0.0769 deg/h, 68 % interval covering
+    0.08 in 5."""
+    from fogbench.device.file import _device_from_values
+
+    fs = 10.0
+    n = int(2 * 3600 * fs)
+    params = _device_from_values({"arw_deg_rt_h": 0.01, "bias_instability_dph": 0.08}, fs)
+    z = np.zeros((n, 3))
+    logs = [StaticLog(f"s{k}", simulate_fog(params, fs, z, z, axes=("z",),
+                                            seed=500 + k).raw[:, 0] + 1e-5 * k, fs)
+            for k in range(8)]
+    pooled, one = fit_device(logs), fit_device(logs[:1])
+    e, e1 = pooled.entry("bias_instability_dph"), one.entry("bias_instability_dph")
+    assert e is not None and e1 is not None
+    assert (e.high - e.low) < 0.5 * (e1.high - e1.low), (e, e1)
+    assert abs(e.value / 0.08 - 1) < 0.1, e
+    assert "8 static logs pooled" in e.source

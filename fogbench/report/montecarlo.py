@@ -16,6 +16,8 @@ from fogbench.report.claims import (
 )
 from fogbench.report.fmt import (
     ci_text,
+    failed_everywhere,
+    failed_text,
     fmt,
     key_metric,
     md_table,
@@ -269,8 +271,10 @@ def render_montecarlo(res: ScenarioResult, mc: dict, fig_names: dict) -> str:
     L = _mc_intro(mc)
     if mc["claims"]:
         L += _mc_claims(mc, fig_names)
-    if mc.get("lab_cost"):
-        L += _mc_lab_cost(mc)
+    twins = [p for p in plan.protocols if getattr(p, "twin_of", None)]
+    if mc.get("lab_cost") or any(failed_everywhere(mc, n) for p in twins
+                                 for n in (p.name, p.twin_of)):
+        L += _mc_lab_cost(mc, twins)
     if mc["rankings"]:
         L += _mc_rankings(mc)
     refs = [pv for pv in plan.paper if pv.segment is None]
@@ -342,9 +346,10 @@ def _mc_claims(mc: dict, fig_names: dict) -> list[str]:
     return L
 
 
-def _mc_lab_cost(mc: dict) -> list[str]:
+def _mc_lab_cost(mc: dict, twins: list) -> list[str]:
     """What the lab's references cost: each method's lab fit minus its ideal-lab twin, over
-    replicates, as a table."""
+    replicates, as a table; a method that failed in every replicate of either protocol
+    (``twins``: the ideal-lab protocols) last, a row saying where."""
     L = ["### What the lab's references cost", "",
          "Each method fitted on what a lab has (protocol `reference = \"lab\"`: the table's "
          "commands, the Earth rate at the believed latitude and heading, gravity through "
@@ -360,6 +365,12 @@ def _mc_lab_cost(mc: dict) -> list[str]:
                      ci_text(c["lab"], c["metric"]), ci_text(c["truth"], c["metric"]),
                      ci_text(d, c["metric"]),
                      "–" if worse is None else f"{100 * worse:.0f} %"])
+    for ideal in twins:
+        lab_f, ideal_f = failed_everywhere(mc, ideal.twin_of), failed_everywhere(mc, ideal.name)
+        for m in dict.fromkeys([*lab_f, *ideal_f]):
+            rows.append([f"`{ideal.twin_of}`", m, "–",
+                         failed_text(lab_f[m]) if m in lab_f else "–",
+                         failed_text(ideal_f[m]) if m in ideal_f else "–", "–", "–"])
     L += [md_table(["protocol", "method", "metric", "lab reference", "ideal (truth)",
                     "lab - ideal", "lab worse in"], rows), ""]
     return L
@@ -419,7 +430,11 @@ def _mc_protocol_table(prot, plan, mc: dict) -> list[str]:
     if not metrics:
         return []
     flag = " (IN-SAMPLE)" if prot.in_sample else ""
-    rows = [[lab] + [ci_text(po.get(lab, {}).get(m), m) for m in metrics] for lab in po]
+    failed = failed_everywhere(mc, prot.name)
+    # a method that failed in every replicate: last, its first error once, no numbers
+    rows = [[lab] + [ci_text(po.get(lab, {}).get(m), m) for m in metrics] for lab in po
+            if lab not in failed]
+    rows += [[lab, failed_text(f)] + ["–"] * (len(metrics) - 1) for lab, f in failed.items()]
     L = [f"### `{prot.name}`{flag}: mean over scored runs, over replicates", "",
          md_table(["method"] + metrics, rows), ""]
     spread = mc.get("seed_spread", {}).get(prot.name, {})

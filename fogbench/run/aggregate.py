@@ -369,8 +369,11 @@ def _claims(docs: list[dict], plan, labels: list[str], runs_of: dict) -> list[di
     return claims
 
 
-def _lab_cost(docs: list[dict], plan, runs_of: dict, over_runs: dict) -> list[dict]:
-    """What the lab's references cost each method (lab minus ideal-lab twin, paired)."""
+def _lab_cost(docs: list[dict], plan, runs_of: dict, over_runs: dict,
+              failed_methods: dict) -> list[dict]:
+    """What the lab's references cost each method (lab minus ideal-lab twin, paired); a
+    method that failed in every replicate of either protocol has none (the report names its
+    failure)."""
     # its metric fitted on the lab's references minus fitted on the truth (the ideal-lab twin
     # protocol), replicate by replicate (the same power-ons and the same random starts in both)
     lab_cost = []
@@ -379,6 +382,9 @@ def _lab_cost(docs: list[dict], plan, runs_of: dict, over_runs: dict) -> list[di
             continue
         runs = [r for r in runs_of[prot.twin_of] if r in runs_of[prot.name]]
         for m in plan.methods:
+            if any((f := failed_methods.get(p, {}).get(m.label)) and
+                   f["failed"] == f["replicates"] for p in (prot.twin_of, prot.name)):
+                continue
             for metric in LAB_COST_METRICS:
                 if metric not in over_runs[prot.twin_of].get(m.label, {}) or \
                         metric not in over_runs[prot.name].get(m.label, {}):
@@ -450,7 +456,7 @@ def aggregate(docs: list[dict], sc, plan) -> dict:
     start_series = _start_series(docs, plan, labels, runs_of)
     series = _replicate_series(docs, plan, labels, runs_of, over_runs)
     claims = _claims(docs, plan, labels, runs_of)
-    lab_cost = _lab_cost(docs, plan, runs_of, over_runs)
+    lab_cost = _lab_cost(docs, plan, runs_of, over_runs, failed_methods)
     rankings = _rankings(docs, plan, runs_of)
     return {"replicates": len(docs), "summary": summary, "over_runs": over_runs,
             "seed_spread": seed_spread, "claims": claims, "rankings": rankings,

@@ -134,7 +134,8 @@ def _fig_distributions(res: ScenarioResult, mc: dict, path: Path, panel) -> bool
         ax.set_xticks(range(len(shown)), shown, rotation=35, ha="right", fontsize=8,
                       rotation_mode="anchor")
         _metric_axis(ax, prot, metric, title)
-        if metric.endswith("_dph") and all(d.size and np.all(d > 0) for d in data):
+        if metric.endswith("_dph") and any(d.size for d in data) and \
+                all(np.all(d > 0) for d in data if d.size):   # an empty column: failed
             ax.set_yscale("log")
             _log_ticks(ax)      # paper004's axis had two labels, 10^0 and 10^1
         ax.grid(alpha=0.3)
@@ -154,10 +155,20 @@ def fig_replicates(res: ScenarioResult, mc: dict, path: Path) -> bool:
 
     def panel(prot, metric):
         ser = mc["series"].get(prot.name, {}).get(metric, {})
+        failed = failed_everywhere(mc, prot.name)
         labels = [lab for lab in ser if any(v is not None for v in ser[lab])]
-        data = [np.array([v for v in ser[lab] if v is not None]) for lab in labels]
+        labels += [lab for lab in failed if lab not in labels]     # an empty column, last
+        data = [np.array([v for v in ser.get(lab, []) if v is not None], dtype=float)
+                for lab in labels]
+
+        def says_failed(ax, i, lab):
+            if lab in failed:
+                ax.text(i, 0.5, f"failed in {failed[lab]['failed']} of "
+                        f"{failed[lab]['replicates']}", transform=ax.get_xaxis_transform(),
+                        rotation=90, ha="center", va="center", fontsize=7, color="C3")
+
         return (labels, data, f"{mc['replicates']} replicates",
-                {"jitter": 0.15, "ms": 3.5, "alpha": 0.7}, None)
+                {"jitter": 0.15, "ms": 3.5, "alpha": 0.7}, says_failed if failed else None)
 
     return _fig_distributions(res, mc, path, panel)
 
@@ -236,6 +247,10 @@ def fig_runs(res: ScenarioResult, mc: dict, path: Path) -> bool:
                                           _color(lab, every, res.plan)),
                         mfc="none" if lab == "raw" else None, label=names.get(lab, lab),
                         gid=f"runs:{prot.name}:{lab}")
+        for lab, f in failed_everywhere(mc, prot.name).items():
+            if lab in labels:   # nothing to draw: named last in the legend as failed
+                ax.errorbar([], [], fmt="x", color="C3", label=f"{names.get(lab, lab)}: "
+                            f"failed in {f['failed']} of {f['replicates']}")
         ax.set_xticks(x, runs, rotation=30, ha="right", rotation_mode="anchor", fontsize=8)
         _metric_axis(ax, prot, metric, f"{metric} on each run\n(mean and 95 % interval over "
                                        f"{mc['replicates']} replicates)")
@@ -404,7 +419,10 @@ def _mc_references(refs: list, plan, mc: dict) -> list[str]:
                     pv.metric)
                 allan = pv.metric in ("arw_deg_rt_h", "bias_instability_dph", "rrw_dph_rt_h",
                                       "gm_sigma_dph", "gm_tau_s")
-                if sm and sm.get("n"):
+                failed = failed_everywhere(mc, prot.name).get(pv.method)
+                if failed:
+                    ours = failed_text(failed)
+                elif sm and sm.get("n"):
                     ours = ci_text({**sm, "n_failed": 0}, pv.metric)
                     total = sm["n"] + (sm.get("n_failed") or 0)
                     if sm.get("n_failed"):
@@ -412,7 +430,7 @@ def _mc_references(refs: list, plan, mc: dict) -> list[str]:
                                  else f", failed in {sm['n_failed']} of {total}")
                 else:
                     ours = "not identified" if allan else "not computed"
-                if allan and pv.source.startswith("configured"):
+                if allan and pv.source.startswith("configured") and not failed:
                     ours = f"configured {fmt(pv.value, pv.metric)}, " + (
                         ours if ours == "not identified" else f"identified {ours}")
                 L.append(f"- `{prot.name}`, {run}, {pv.method}, {pv.metric}: reference "

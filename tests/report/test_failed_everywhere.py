@@ -15,13 +15,34 @@ ERROR = "RuntimeError: planted failure in fit"
 FAILED = f"failed in 3 of 3: {ERROR}"
 
 
-def _run(tmp_path):
-    s = tmp_path / "s.toml"
-    s.write_text(SMALL_SCENARIO + '\n[[methods]]\nname = "plugin_methods:Raises"\n')
-    code, _, err = run_cli("run", s, "--out", tmp_path / "run", "--replicates", "3",
-                           "--jobs", "1", "--no-recording", "--no-figures", "--quiet",
+#: SMALL_SCENARIO with a third power-on scored beside b (so that runs.png is drawn) and a
+#: plug-in that raises in every fit
+SCENARIO = SMALL_SCENARIO.replace('score = ["b"]', 'score = ["b", "c"]').replace(
+    "[[protocols]]", '[[runs]]\nname = "c"\nseed = 3\n[[runs.motion]]\ntype = "hold"\n'
+    'duration_s = 30.0\n\n[[protocols]]') + '\n[[methods]]\nname = "plugin_methods:Raises"\n'
+
+
+def _suite(tmp_path, monkeypatch):
+    """``fogbench suite`` of the one scenario (3 replicates): (exit status, stderr, the texts
+    of every figure drawn: axes texts, tick labels, legends)."""
+    from fogbench.outputs import files as IO
+
+    texts = []
+    save = IO.save_figure
+
+    def keep(fig, path):
+        texts.append(" | ".join(t.get_text() for ax in fig.axes for t in [
+            *ax.texts, *ax.get_xticklabels(), *ax.get_yticklabels(),
+            *(ax.get_legend().get_texts() if ax.get_legend() else [])]))
+        return save(fig, path)
+
+    monkeypatch.setattr(IO, "save_figure", keep)
+    (tmp_path / "scn").mkdir()
+    (tmp_path / "scn" / "tiny.toml").write_text(SCENARIO)
+    code, _, err = run_cli("suite", "--scenarios", tmp_path / "scn", "--out", tmp_path / "rep",
+                           "--replicates", "3", "--jobs", "1", "--no-recording", "--quiet",
                            "--no-map")
-    return code, err
+    return code, err, texts
 
 
 def _table_after(lines: list[str], heading: str) -> list[str]:
@@ -35,10 +56,10 @@ def _table_after(lines: list[str], heading: str) -> list[str]:
     return rows
 
 
-def test_a_method_failing_in_every_replicate_is_listed_last_everywhere(tmp_path):
-    code, err = _run(tmp_path)
+def test_a_method_failing_in_every_replicate_is_listed_last_everywhere(tmp_path, monkeypatch):
+    code, err, figures = _suite(tmp_path, monkeypatch)
     assert code == 0, err
-    doc = json.loads((tmp_path / "run" / "metrics.json").read_text())
+    doc = json.loads((tmp_path / "rep" / "tiny" / "metrics.json").read_text())
     mc = doc["montecarlo"]
     assert mc["failed_methods"]["p"]["Raises"] == {
         "failed": 3, "replicates": 3, "first_error": ERROR, "first_replicate": 0}
@@ -47,7 +68,7 @@ def test_a_method_failing_in_every_replicate_is_listed_last_everywhere(tmp_path)
     sm = mc["over_runs"]["p"]["Raises"]["rmse_dph"]
     assert (sm["n"], sm["n_failed"], sm["mean"]) == (0, 3, None)
 
-    lines = (tmp_path / "run" / "report.md").read_text().splitlines()
+    lines = (tmp_path / "rep" / "tiny" / "report.md").read_text().splitlines()
     short = next(ln for ln in lines if ln.startswith("- `p`, rmse_dph:"))
     assert short.index("wavelet_soft") < short.index(f"failed: Raises ({FAILED})"), short
     for prot in ("p", "p.ideal"):
@@ -57,13 +78,25 @@ def test_a_method_failing_in_every_replicate_is_listed_last_everywhere(tmp_path)
     cost = _table_after(lines, "### What the lab's references cost")
     assert cost[-1] == f"| `p` | Raises | – | {FAILED} | {FAILED} | – | – |", cost
 
-    code, _, err = run_cli("compare", tmp_path / "run", "--out", tmp_path / "cmp")
+    # replicates.png: an empty column saying so; runs.png: named last in the legend
+    assert any("Raises" in t and "failed in 3 of 3" in t and "wavelet_soft" in t
+               for t in figures), figures
+    assert any(t.endswith("wavelet_soft | Raises: failed in 3 of 3") for t in figures), figures
+
+    # the suite's summary: the same row, last
+    summary = (tmp_path / "rep" / "README.md").read_text().splitlines()
+    table = _table_after(summary, "**Protocol `p` (held out)**, scored on b, c:")
+    assert table[-1].startswith(f"| Raises | {FAILED} | – |"), table
+
+    # compare (the suite writes it beside its summary; `fogbench compare` writes the same)
+    code, _, err = run_cli("compare", tmp_path / "rep" / "tiny", "--out", tmp_path / "cmp")
     assert code == 0, err
     md = (tmp_path / "cmp" / "compare.md").read_text().splitlines()
-    mine = [ln for ln in md if ln.startswith("| tiny (run) | p | ")]
+    assert md == (tmp_path / "rep" / "compare.md").read_text().splitlines()
+    mine = [ln for ln in md if ln.startswith("| tiny | p | ")]
     assert len(mine) == 2, md
     assert "| wavelet_soft |" in mine[0] and "| 1 of 2 (100%) | 0 of 3 |" in mine[0], mine
-    assert mine[1] == (f"| tiny (run) | p | improvement_rmse_pct | Raises | {FAILED} | "
+    assert mine[1] == (f"| tiny | p | improvement_rmse_pct | Raises | {FAILED} | "
                        + mine[0].split(" | ")[5] + " | – | 2 of 2 (100%) | 3 of 3 | no |"), mine
     rows = json.loads((tmp_path / "cmp" / "compare.json").read_text())["rows"]
     got = {(r["protocol"], r["method"]): r for r in rows}

@@ -448,11 +448,23 @@ def verdicts_section(mc: dict, fig_names: dict) -> list[str]:
         fn = fig_names.get(("claim", i))
         tag = "in-sample" if c.get("in_sample") else "held out"
         L.append(f"- {verdict_link(c, fn)}: {c['better']} over {c['than']}, {c['metric']} "
-                 f"{_runs_text(c)} (`{c['protocol']}`, {tag}): {_ci(c.get('summary'))} % "
+                 f"{_runs_text(c)} (`{c['protocol']}`, {tag}): "
+                 f"{claim_failed_text(mc, c) or _ci(c.get('summary')) + ' %'} "
                  f"against the claimed {claimed_text(c)}; oracle "
                  f"{_ci(c.get('oracle_improvement'))} %. {c['source']}: \"{c['text']}\"")
     L.append("")
     return L
+
+
+def claim_failed_text(mc: dict, c: dict) -> str | None:
+    """Which side of claim ``c`` failed in every replicate, with its first error (None when
+    neither did): ``<method> failed in R of R: <error>``, joined by "; "."""
+    from fogbench.report.fmt import failed_everywhere, failed_text
+
+    failed = failed_everywhere(mc, c["protocol"])
+    parts = [f"{lab} {failed_text(failed[lab])}" for lab in dict.fromkeys((c["better"], c["than"]))
+             if lab in failed]
+    return "; ".join(parts) or None
 
 
 #: an improvement whose whole interval is within this of 0 (%) is "unchanged", whatever its sign:

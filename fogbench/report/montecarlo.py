@@ -11,6 +11,7 @@ import numpy as np
 from fogbench.outputs import files
 from fogbench.report.claims import (
     SETUP_HEADING,
+    claim_failed_text,
     unit_of,
     verdict_link,
 )
@@ -346,7 +347,7 @@ def _mc_claims(mc: dict, fig_names: dict) -> list[str]:
         first = c["paired"].get("first_better")
         L.append(f"- {c['source']}: \"{c['text']}\" — `{c['protocol']}`{tag}: "
                  f"{c['better']} vs {c['than']} on {c['metric']}: "
-                 f"{ci_text(sm, '_pct')} % (claim {rng}): "
+                 f"{claim_failed_text(mc, c) or ci_text(sm, '_pct') + ' %'} (claim {rng}): "
                  + verdict_link(c, fig_names.get(("claim", i))) + "; the claim "
                  f"held in {held} of replicates; {c['better']} better than {c['than']} in "
                  f"{'–' if first is None else f'{100 * first:.0f} %'} of replicates. "

@@ -328,8 +328,10 @@ def _claim_on_protocol(docs: list[dict], c, prot, runs: list[str], oracle_bounds
             for lab in (c.better, c.than))
     vals = _improvement(a, b)
     if np.all(np.isnan(vals)) and not any(
-            _is_num(d["protocols"].get(prot.name, {}).get("runs", {}).get(runs[0], {})
-                    .get(c.than, {}).get(c.metric)) for d in docs):
+            _is_num(m.get(c.metric)) or m.get("status") == "failed"    # a failed comparator
+            for d in docs                                           # keeps its claim
+            if isinstance(m := d["protocols"].get(prot.name, {}).get("runs", {})
+                          .get(runs[0], {}).get(c.than), dict)):
         return None
     o = _over_runs(docs, prot.name, runs, oracle_label, c.metric)
     ovals = _improvement(o, b)

@@ -448,11 +448,23 @@ def verdicts_section(mc: dict, fig_names: dict) -> list[str]:
         fn = fig_names.get(("claim", i))
         tag = "in-sample" if c.get("in_sample") else "held out"
         L.append(f"- {verdict_link(c, fn)}: {c['better']} over {c['than']}, {c['metric']} "
-                 f"{_runs_text(c)} (`{c['protocol']}`, {tag}): {_ci(c.get('summary'))} % "
+                 f"{_runs_text(c)} (`{c['protocol']}`, {tag}): "
+                 f"{claim_failed_text(mc, c) or _ci(c.get('summary')) + ' %'} "
                  f"against the claimed {claimed_text(c)}; oracle "
                  f"{_ci(c.get('oracle_improvement'))} %. {c['source']}: \"{c['text']}\"")
     L.append("")
     return L
+
+
+def claim_failed_text(mc: dict, c: dict) -> str | None:
+    """Which side of claim ``c`` failed in every replicate, with its first error (None when
+    neither did): ``<method> failed in R of R: <error>``, joined by "; "."""
+    from fogbench.report.fmt import failed_everywhere, failed_text
+
+    failed = failed_everywhere(mc, c["protocol"])
+    parts = [f"{lab} {failed_text(failed[lab])}" for lab in dict.fromkeys((c["better"], c["than"]))
+             if lab in failed]
+    return "; ".join(parts) or None
 
 
 #: an improvement whose whole interval is within this of 0 (%) is "unchanged", whatever its sign:
@@ -461,16 +473,21 @@ def verdicts_section(mc: dict, fig_names: dict) -> list[str]:
 UNCHANGED_PCT = 0.05
 
 
-def _placed(labs: dict, imp: str) -> tuple[dict, list]:
+def _placed(labs: dict, imp: str, failed: dict | None = None) -> tuple[dict, list]:
     """The methods' improvements ``imp`` placed by their intervals (groups of (sort key,
-    text)), and the oracles' texts."""
-    from fogbench.report.fmt import ci_text
+    text)), and the oracles' texts; ``failed`` (label -> record: the methods that failed in
+    every replicate) the last group, each with its first error."""
+    from fogbench.report.fmt import ci_text, failed_text
 
+    failed = failed or {}
     groups: dict[str, list] = {"better": [], "not told apart from raw": [], "worse": [],
-                               f"unchanged (within {UNCHANGED_PCT} %)": []}
+                               f"unchanged (within {UNCHANGED_PCT} %)": [], "failed": []}
     refs = []
     for lab, mets in labs.items():
         sm = mets.get(imp)
+        if lab in failed:
+            groups["failed"].append((0, f"{lab} ({failed_text(failed[lab])})"))
+            continue
         if lab == "raw" or not sm or not (sm.get("n") or sm.get("n_failed")):
             continue
         txt = f"{lab} {ci_text(sm, imp)}"   # ("on <run> only": a mean over fewer runs)
@@ -496,7 +513,7 @@ def metric_takeaway(mc: dict, plan) -> str | None:
     the 100 s bias stability, which a constant does not move), the RMSE's improvement too
     (what `fogbench compare` ranks them on). None when no protocol has an improvement of a
     key metric."""
-    from fogbench.report.fmt import key_metric
+    from fogbench.report.fmt import failed_everywhere, key_metric
     from fogbench.run.metrics import IMPROVEMENT_OF
 
     twins = {p.name for p in getattr(plan, "protocols", []) if getattr(p, "twin_of", None)}
@@ -512,14 +529,15 @@ def metric_takeaway(mc: dict, plan) -> str | None:
             imp = IMPROVEMENT_OF.get(metric)
             if imp is None:
                 continue
-            groups, refs = _placed(labs, imp)
+            groups, refs = _placed(labs, imp, failed_everywhere(mc, prot))
             parts = [f"{g}: " + ", ".join(t for _, t in sorted(v))
                      for g, v in groups.items() if v]
             if not parts:
                 continue
             lines.append(f"- `{prot}`, {metric}: " + "; ".join(parts)
                          + (f" (oracle: {', '.join(refs)})" if refs else ""))
-            if metric != "rmse_dph" and len([g for g, v in groups.items() if v]) == 1 and \
+            if metric != "rmse_dph" and len([g for g, v in groups.items()
+                                             if v and g != "failed"]) == 1 and \
                     groups[f"unchanged (within {UNCHANGED_PCT} %)"]:
                 todo.append("rmse_dph")
     if not lines:

@@ -186,6 +186,33 @@ def _one_replicate(doc: dict, d: Path) -> dict:
     return out
 
 
+def _first_errors(doc: dict, prot: str) -> dict[str, str]:
+    """Per method, its first error on ``prot``: ``montecarlo.failed_methods`` where the run
+    kept it, else replicate 0's record of a failed scored run (a run written before)."""
+    from fogbench.run.aggregate import one_line
+
+    kept = ((doc.get("montecarlo") or {}).get("failed_methods") or {}).get(prot)
+    if isinstance(kept, dict):
+        return {m: one_line(f.get("first_error")) for m, f in kept.items() if isinstance(f, dict)}
+    out: dict = {}
+    runs = ((doc.get("protocols") or {}).get(prot) or {}).get("runs") or {}
+    for by_label in runs.values():
+        for m, rec in (by_label or {}).items():
+            if isinstance(rec, dict) and rec.get("status") == "failed" and m not in out:
+                out[m] = one_line(rec.get("error"))
+    return out
+
+
+def _with_failed(vals: dict, errors: dict, R: int) -> dict:
+    """``vals`` with every method that failed and has no series (an older run left a method
+    that failed in every replicate out of ``montecarlo.series``) as a series of R failures."""
+    out = dict(vals)
+    for m in errors:
+        if m not in out and m not in REFERENCES:
+            out[m] = np.full(R, np.nan)
+    return out
+
+
 def _headline(doc: dict) -> str:
     claims = (doc.get("montecarlo") or {}).get("claims") or []
     return claims[0]["metric"] if claims else DEFAULT_METRIC
@@ -216,15 +243,21 @@ def collect(paths) -> list[dict]:
                 with np.errstate(divide="ignore", invalid="ignore"):
                     vals = {lab: np.where(raw > 0, 100.0 * (1.0 - v / raw), np.nan)
                             for lab, v in vals.items()}
+            errors = _first_errors(doc, prot)
+            R = len(next(iter(vals.values()))) if vals else 0
+            vals = _with_failed(vals, errors, R)
             methods = [m for m in vals if m not in REFERENCES]
             if not methods:
                 continue
-            R = len(next(iter(vals.values())))
+            # a method that failed in every replicate: after the others, ranked last
+            everywhere = [m for m in methods if not np.any(np.isfinite(vals[m]))]
+            methods = [m for m in methods if m not in everywhere] + everywhere
             M = np.column_stack([vals[m] for m in methods])
             sign = -1.0 if better == "higher" else 1.0
             key = np.where(np.isfinite(M), sign * M, np.inf)      # a failure ranks last
             # 1 + the methods strictly better in that replicate: equal values share a rank
             ranks = 1 + np.sum(key[:, None, :] < key[:, :, None], axis=2)
+            ranks[:, len(methods) - len(everywhere):] = len(methods)
             refs = {lab: S.summarize(vals[lab]).as_dict() for lab in REFERENCES[1:]
                     if lab in vals}
             for j, m in enumerate(methods):
@@ -243,6 +276,7 @@ def collect(paths) -> list[dict]:
                     f"improvement of {metric} over raw, %",
                     "better": better, "method": m, "replicates": R,
                     "failed": int(np.sum(~np.isfinite(vals[m]))),
+                    "first_error": errors.get(m) if np.any(~np.isfinite(vals[m])) else None,
                     "value": S.summarize(vals[m]).as_dict(),
                     "rank": mode, "rank_probability": float(counts[mode] / R),
                     "methods_ranked": len(methods), **{lab: refs[lab] for lab in refs}})
@@ -256,6 +290,22 @@ def _iv(s: dict | None) -> str:
     if lo is None or hi is None or not math.isfinite(lo):
         return f"{s['mean']:.3g}"
     return f"{s['mean']:.3g} [{lo:.3g}, {hi:.3g}]"
+
+
+def _failed_everywhere(r: dict) -> bool:
+    return bool(r.get("failed")) and r["failed"] == r.get("replicates")
+
+
+def _failed_text(r: dict) -> str:
+    """``failed in R of R: <first error>`` (the error where the run recorded it)."""
+    err = r.get("first_error")
+    return f"failed in {r['failed']} of {r['replicates']}" + (f": {err}" if err else "")
+
+
+def _value_text(r: dict) -> str:
+    """A row's improvement: its interval, or for a method that failed in every replicate
+    the failure with its first error."""
+    return _failed_text(r) if _failed_everywhere(r) else _iv(r["value"])
 
 
 def compare_markdown(rows: list[dict]) -> str:
@@ -272,7 +322,8 @@ def compare_markdown(rows: list[dict]) -> str:
          f"contiguous and of at most {ORACLE_FILTER_MAX_SAMPLES:,} samples, else -) beside "
          "it, the "
          "method's most frequent rank among the methods and the share of replicates where it "
-         "had that rank, and its failed replicates. In-sample: scored on the data it was "
+         "had that rank, and its failed replicates (a method that failed in every replicate: "
+         "\"failed in R of R\" with its first error, ranked last). In-sample: scored on the data it was "
          "fitted on (a paper's protocol, flagged). The figure leaves the ideal-lab twins "
          "(`<name>.ideal`) to this table and draws a sweep as its paper setting's row with the "
          "range of its settings' means.", "",
@@ -282,7 +333,7 @@ def compare_markdown(rows: list[dict]) -> str:
          "|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         L.append(f"| {r['scenario']} | {r['protocol']} | {r['metric']} | {r['method']} | "
-                 f"{_iv(r['value'])} | {_iv(r.get('oracle'))} | {_iv(r.get('oracle_filter'))} | "
+                 f"{_value_text(r)} | {_iv(r.get('oracle'))} | {_iv(r.get('oracle_filter'))} | "
                  f"{r['rank']} of {r['methods_ranked']} ({r['rank_probability']:.0%}) | "
                  f"{r['failed']} of {r['replicates']} | {'yes' if r['in_sample'] else 'no'} |")
     return "\n".join(L) + "\n"
@@ -375,7 +426,11 @@ def _figure(rows: list[dict], path: str) -> None:
             o = r.get(lab)
             if o and o.get("mean") is not None and o["mean"] >= FLOOR_PCT:
                 ax.plot(o["mean"], yi, "|", color=c, ms=9, mew=1.6, zorder=2.5)
-        if r["failed"]:
+        if _failed_everywhere(r):     # no value to draw: a cross at 0 and why, on its row
+            ax.plot(0.0, yi, "x", color="C3", ms=6, mew=1.5, zorder=3)
+            ax.annotate(_failed_text(r)[:90], (0.0, yi), xytext=(6, 0),
+                        textcoords="offset points", fontsize=6, va="center", color="C3")
+        elif r["failed"]:
             ax.annotate(f"{r['failed']} failed", (1.0, yi), xycoords=("axes fraction", "data"),
                         fontsize=6, ha="right", va="center", color="C1")
     ax.axvline(0.0, color="0.6", lw=0.8)
@@ -397,6 +452,10 @@ def _figure(rows: list[dict], path: str) -> None:
                             f"{ORACLE_FILTER_MAX_SAMPLES:,} samples)"),
                Line2D([], [], color="0.45", lw=2.0,
                       label="a sweep: its settings' means, min to max")]
+    if any(_failed_everywhere(r) for r in rows):
+        handles.append(Line2D([], [], marker="x", color="C3", ls="", mew=1.5,
+                              label="failed in every replicate (no value; at 0, its first "
+                                    "error)"))
     ax.legend(handles=handles, fontsize=7, loc="lower center", bbox_to_anchor=(0.5, 1.0),
               ncol=3, frameon=False)
     ax.set_title("Every method across scenarios (ideal-lab twins and sweep settings: "

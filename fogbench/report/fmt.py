@@ -6,7 +6,7 @@ import math
 
 from fogbench.run.metrics import KEY_METRICS
 
-__all__ = ["fmt", "md_table", "decimation", "ci_text",
+__all__ = ["fmt", "md_table", "decimation", "ci_text", "failed_everywhere", "failed_text",
            "p_better_text", "key_metric", "metrics_table"]
 
 
@@ -51,6 +51,19 @@ def ci_text(sm: dict | None, metric: str) -> str:
     if sm.get("runs"):      # a mean over fewer runs than the protocol scores (montecarlo)
         txt += f" on {', '.join(sm['runs'])} only"
     return txt
+
+
+def failed_everywhere(mc: dict | None, protocol: str) -> dict[str, dict]:
+    """The methods of ``protocol`` that failed in every replicate (``montecarlo``'s
+    ``failed_methods``, empty in a run written before it was kept): label -> its record."""
+    got = ((mc or {}).get("failed_methods") or {}).get(protocol) or {}
+    return {lab: f for lab, f in got.items()
+            if isinstance(f, dict) and f.get("failed") and f.get("failed") == f.get("replicates")}
+
+
+def failed_text(f: dict) -> str:
+    """``failed in R of R: <first error>``: a method that failed everywhere, in one cell."""
+    return f"failed in {f['failed']} of {f['replicates']}: {f.get('first_error') or '–'}"
 
 
 def p_better_text(p: dict) -> str:

@@ -11,11 +11,14 @@ import numpy as np
 from fogbench.outputs import files
 from fogbench.report.claims import (
     SETUP_HEADING,
+    claim_failed_text,
     unit_of,
     verdict_link,
 )
 from fogbench.report.fmt import (
     ci_text,
+    failed_everywhere,
+    failed_text,
     fmt,
     key_metric,
     md_table,
@@ -132,7 +135,8 @@ def _fig_distributions(res: ScenarioResult, mc: dict, path: Path, panel) -> bool
         ax.set_xticks(range(len(shown)), shown, rotation=35, ha="right", fontsize=8,
                       rotation_mode="anchor")
         _metric_axis(ax, prot, metric, title)
-        if metric.endswith("_dph") and all(d.size and np.all(d > 0) for d in data):
+        if metric.endswith("_dph") and any(d.size for d in data) and \
+                all(np.all(d > 0) for d in data if d.size):   # an empty column: failed
             ax.set_yscale("log")
             _log_ticks(ax)      # paper004's axis had two labels, 10^0 and 10^1
         ax.grid(alpha=0.3)
@@ -152,10 +156,20 @@ def fig_replicates(res: ScenarioResult, mc: dict, path: Path) -> bool:
 
     def panel(prot, metric):
         ser = mc["series"].get(prot.name, {}).get(metric, {})
+        failed = failed_everywhere(mc, prot.name)
         labels = [lab for lab in ser if any(v is not None for v in ser[lab])]
-        data = [np.array([v for v in ser[lab] if v is not None]) for lab in labels]
+        labels += [lab for lab in failed if lab not in labels]     # an empty column, last
+        data = [np.array([v for v in ser.get(lab, []) if v is not None], dtype=float)
+                for lab in labels]
+
+        def says_failed(ax, i, lab):
+            if lab in failed:
+                ax.text(i, 0.5, f"failed in {failed[lab]['failed']} of "
+                        f"{failed[lab]['replicates']}", transform=ax.get_xaxis_transform(),
+                        rotation=90, ha="center", va="center", fontsize=7, color="C3")
+
         return (labels, data, f"{mc['replicates']} replicates",
-                {"jitter": 0.15, "ms": 3.5, "alpha": 0.7}, None)
+                {"jitter": 0.15, "ms": 3.5, "alpha": 0.7}, says_failed if failed else None)
 
     return _fig_distributions(res, mc, path, panel)
 
@@ -234,6 +248,10 @@ def fig_runs(res: ScenarioResult, mc: dict, path: Path) -> bool:
                                           _color(lab, every, res.plan)),
                         mfc="none" if lab == "raw" else None, label=names.get(lab, lab),
                         gid=f"runs:{prot.name}:{lab}")
+        for lab, f in failed_everywhere(mc, prot.name).items():
+            if lab in labels:   # nothing to draw: named last in the legend as failed
+                ax.errorbar([], [], fmt="x", color="C3", label=f"{names.get(lab, lab)}: "
+                            f"failed in {f['failed']} of {f['replicates']}")
         ax.set_xticks(x, runs, rotation=30, ha="right", rotation_mode="anchor", fontsize=8)
         _metric_axis(ax, prot, metric, f"{metric} on each run\n(mean and 95 % interval over "
                                        f"{mc['replicates']} replicates)")
@@ -269,8 +287,10 @@ def render_montecarlo(res: ScenarioResult, mc: dict, fig_names: dict) -> str:
     L = _mc_intro(mc)
     if mc["claims"]:
         L += _mc_claims(mc, fig_names)
-    if mc.get("lab_cost"):
-        L += _mc_lab_cost(mc)
+    twins = [p for p in plan.protocols if getattr(p, "twin_of", None)]
+    if mc.get("lab_cost") or any(failed_everywhere(mc, n) for p in twins
+                                 for n in (p.name, p.twin_of)):
+        L += _mc_lab_cost(mc, twins)
     if mc["rankings"]:
         L += _mc_rankings(mc)
     refs = [pv for pv in plan.paper if pv.segment is None]
@@ -327,7 +347,7 @@ def _mc_claims(mc: dict, fig_names: dict) -> list[str]:
         first = c["paired"].get("first_better")
         L.append(f"- {c['source']}: \"{c['text']}\" — `{c['protocol']}`{tag}: "
                  f"{c['better']} vs {c['than']} on {c['metric']}: "
-                 f"{ci_text(sm, '_pct')} % (claim {rng}): "
+                 f"{claim_failed_text(mc, c) or ci_text(sm, '_pct') + ' %'} (claim {rng}): "
                  + verdict_link(c, fig_names.get(("claim", i))) + "; the claim "
                  f"held in {held} of replicates; {c['better']} better than {c['than']} in "
                  f"{'–' if first is None else f'{100 * first:.0f} %'} of replicates. "
@@ -342,9 +362,10 @@ def _mc_claims(mc: dict, fig_names: dict) -> list[str]:
     return L
 
 
-def _mc_lab_cost(mc: dict) -> list[str]:
+def _mc_lab_cost(mc: dict, twins: list) -> list[str]:
     """What the lab's references cost: each method's lab fit minus its ideal-lab twin, over
-    replicates, as a table."""
+    replicates, as a table; a method that failed in every replicate of either protocol
+    (``twins``: the ideal-lab protocols) last, a row saying where."""
     L = ["### What the lab's references cost", "",
          "Each method fitted on what a lab has (protocol `reference = \"lab\"`: the table's "
          "commands, the Earth rate at the believed latitude and heading, gravity through "
@@ -360,6 +381,12 @@ def _mc_lab_cost(mc: dict) -> list[str]:
                      ci_text(c["lab"], c["metric"]), ci_text(c["truth"], c["metric"]),
                      ci_text(d, c["metric"]),
                      "–" if worse is None else f"{100 * worse:.0f} %"])
+    for ideal in twins:
+        lab_f, ideal_f = failed_everywhere(mc, ideal.twin_of), failed_everywhere(mc, ideal.name)
+        for m in dict.fromkeys([*lab_f, *ideal_f]):
+            rows.append([f"`{ideal.twin_of}`", m, "–",
+                         failed_text(lab_f[m]) if m in lab_f else "–",
+                         failed_text(ideal_f[m]) if m in ideal_f else "–", "–", "–"])
     L += [md_table(["protocol", "method", "metric", "lab reference", "ideal (truth)",
                     "lab - ideal", "lab worse in"], rows), ""]
     return L
@@ -393,7 +420,10 @@ def _mc_references(refs: list, plan, mc: dict) -> list[str]:
                     pv.metric)
                 allan = pv.metric in ("arw_deg_rt_h", "bias_instability_dph", "rrw_dph_rt_h",
                                       "gm_sigma_dph", "gm_tau_s")
-                if sm and sm.get("n"):
+                failed = failed_everywhere(mc, prot.name).get(pv.method)
+                if failed:
+                    ours = failed_text(failed)
+                elif sm and sm.get("n"):
                     ours = ci_text({**sm, "n_failed": 0}, pv.metric)
                     total = sm["n"] + (sm.get("n_failed") or 0)
                     if sm.get("n_failed"):
@@ -401,7 +431,7 @@ def _mc_references(refs: list, plan, mc: dict) -> list[str]:
                                  else f", failed in {sm['n_failed']} of {total}")
                 else:
                     ours = "not identified" if allan else "not computed"
-                if allan and pv.source.startswith("configured"):
+                if allan and pv.source.startswith("configured") and not failed:
                     ours = f"configured {fmt(pv.value, pv.metric)}, " + (
                         ours if ours == "not identified" else f"identified {ours}")
                 L.append(f"- `{prot.name}`, {run}, {pv.method}, {pv.metric}: reference "
@@ -419,7 +449,11 @@ def _mc_protocol_table(prot, plan, mc: dict) -> list[str]:
     if not metrics:
         return []
     flag = " (IN-SAMPLE)" if prot.in_sample else ""
-    rows = [[lab] + [ci_text(po.get(lab, {}).get(m), m) for m in metrics] for lab in po]
+    failed = failed_everywhere(mc, prot.name)
+    # a method that failed in every replicate: last, its first error once, no numbers
+    rows = [[lab] + [ci_text(po.get(lab, {}).get(m), m) for m in metrics] for lab in po
+            if lab not in failed]
+    rows += [[lab, failed_text(f)] + ["–"] * (len(metrics) - 1) for lab, f in failed.items()]
     L = [f"### `{prot.name}`{flag}: mean over scored runs, over replicates", "",
          md_table(["method"] + metrics, rows), ""]
     spread = mc.get("seed_spread", {}).get(prot.name, {})

@@ -10,7 +10,7 @@ import numpy as np
 
 from fogbench.run import stats as S
 
-__all__ = ["aggregate", "TIMING_METRICS"]
+__all__ = ["aggregate", "TIMING_METRICS", "one_line"]
 
 TIMING_METRICS = ("fit_time_s", "compensate_time_s", "compensate_samples_per_s")
 # per-replicate values kept for the distribution figure and the recording (mean over scored runs)
@@ -190,6 +190,32 @@ def _metric_names(docs: list[dict], prot: str, runs: list[str],
     return metrics
 
 
+def one_line(error, limit: int = 160) -> str:
+    """An error message as one line of a table: its first line, at most ``limit`` characters."""
+    text = str(error or "").strip().splitlines()
+    line = text[0].strip() if text else "no message recorded"
+    return line if len(line) <= limit else line[:limit - 3].rstrip() + "..."
+
+
+def _failed_methods(docs: list[dict], prot: str, methods: list[str]) -> dict:
+    """Per method that failed on some scored run of ``prot`` in some replicate: in how many
+    replicates (``failed``) of ``replicates``, and the first error (the lowest replicate's,
+    on one line) with its replicate."""
+    out: dict = {}
+    for lab in methods:
+        failed, first = [], None
+        for d in docs:
+            errs = [m.get("error") for by in d["protocols"].get(prot, {}).get("runs", {}).values()
+                    if isinstance(m := by.get(lab), dict) and m.get("status") == "failed"]
+            if errs:
+                failed.append(int(d["replicate"]))
+                first = errs[0] if first is None else first
+        if failed:
+            out[lab] = {"failed": len(failed), "replicates": len(docs),
+                        "first_error": one_line(first), "first_replicate": failed[0]}
+    return out
+
+
 def _protocol_summaries(docs: list[dict], prot: str, runs: list[str], labels: list[str],
                         metrics: dict[str, set]) -> tuple[dict, dict]:
     """One protocol's summaries: per run, and of the mean over its scored runs."""
@@ -209,6 +235,17 @@ def _protocol_summaries(docs: list[dict], prot: str, runs: list[str], labels: li
                 if len(have) < len(runs):   # a mean over fewer runs than the others'
                     po[lab][metric]["runs"] = list(have)
     return ps, po
+
+
+def _give_failed_their_metrics(metrics: dict[str, set], failed: dict, plan) -> None:
+    """A method that failed in every replicate has no metric of its own: it is given the other
+    methods' (else every row's), so its summaries (n = 0, n_failed = R) and series (all null)
+    list it wherever the methods are listed, in place."""
+    others = set().union(*(metrics.get(m.label, set()) for m in plan.methods))
+    every = others or set().union(*metrics.values())
+    for lab, f in failed.items():
+        if not metrics.get(lab) and f["failed"] == f["replicates"]:
+            metrics[lab] = set(every)
 
 
 def _add_seed_spread(seed_spread: dict, docs: list[dict], prot: str,
@@ -291,8 +328,10 @@ def _claim_on_protocol(docs: list[dict], c, prot, runs: list[str], oracle_bounds
             for lab in (c.better, c.than))
     vals = _improvement(a, b)
     if np.all(np.isnan(vals)) and not any(
-            _is_num(d["protocols"].get(prot.name, {}).get("runs", {}).get(runs[0], {})
-                    .get(c.than, {}).get(c.metric)) for d in docs):
+            _is_num(m.get(c.metric)) or m.get("status") == "failed"    # a failed comparator
+            for d in docs                                           # keeps its claim
+            if isinstance(m := d["protocols"].get(prot.name, {}).get("runs", {})
+                          .get(runs[0], {}).get(c.than), dict)):
         return None
     o = _over_runs(docs, prot.name, runs, oracle_label, c.metric)
     ovals = _improvement(o, b)
@@ -332,8 +371,11 @@ def _claims(docs: list[dict], plan, labels: list[str], runs_of: dict) -> list[di
     return claims
 
 
-def _lab_cost(docs: list[dict], plan, runs_of: dict, over_runs: dict) -> list[dict]:
-    """What the lab's references cost each method (lab minus ideal-lab twin, paired)."""
+def _lab_cost(docs: list[dict], plan, runs_of: dict, over_runs: dict,
+              failed_methods: dict) -> list[dict]:
+    """What the lab's references cost each method (lab minus ideal-lab twin, paired); a
+    method that failed in every replicate of either protocol has none (the report names its
+    failure)."""
     # its metric fitted on the lab's references minus fitted on the truth (the ideal-lab twin
     # protocol), replicate by replicate (the same power-ons and the same random starts in both)
     lab_cost = []
@@ -342,6 +384,9 @@ def _lab_cost(docs: list[dict], plan, runs_of: dict, over_runs: dict) -> list[di
             continue
         runs = [r for r in runs_of[prot.twin_of] if r in runs_of[prot.name]]
         for m in plan.methods:
+            if any((f := failed_methods.get(p, {}).get(m.label)) and
+                   f["failed"] == f["replicates"] for p in (prot.twin_of, prot.name)):
+                continue
             for metric in LAB_COST_METRICS:
                 if metric not in over_runs[prot.twin_of].get(m.label, {}) or \
                         metric not in over_runs[prot.name].get(m.label, {}):
@@ -398,10 +443,14 @@ def aggregate(docs: list[dict], sc, plan) -> dict:
     over_runs: dict = {}
     seed_spread: dict = {}
     runs_of: dict = {}
+    failed_methods: dict = {}
     labels = _labels(docs, plan)
     for prot in plan.protocols:
         runs_of[prot.name] = runs = _scored_runs(docs, prot.name)
         metrics = _metric_names(docs, prot.name, runs, labels)
+        failed_methods[prot.name] = _failed_methods(docs, prot.name,
+                                                    [m.label for m in plan.methods])
+        _give_failed_their_metrics(metrics, failed_methods[prot.name], plan)
         summary[prot.name], over_runs[prot.name] = _protocol_summaries(
             docs, prot.name, runs, labels, metrics)
         _add_seed_spread(seed_spread, docs, prot.name, metrics)
@@ -409,11 +458,11 @@ def aggregate(docs: list[dict], sc, plan) -> dict:
     start_series = _start_series(docs, plan, labels, runs_of)
     series = _replicate_series(docs, plan, labels, runs_of, over_runs)
     claims = _claims(docs, plan, labels, runs_of)
-    lab_cost = _lab_cost(docs, plan, runs_of, over_runs)
+    lab_cost = _lab_cost(docs, plan, runs_of, over_runs, failed_methods)
     rankings = _rankings(docs, plan, runs_of)
     return {"replicates": len(docs), "summary": summary, "over_runs": over_runs,
             "seed_spread": seed_spread, "claims": claims, "rankings": rankings,
-            "lab_cost": lab_cost,
+            "lab_cost": lab_cost, "failed_methods": {p: f for p, f in failed_methods.items() if f},
             "series": series, "start_series": start_series,
             "interval": "95 % Student t-interval of the mean over replicates "
                         "(fogbench.run.stats.summarize)"}

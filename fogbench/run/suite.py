@@ -12,7 +12,8 @@ from pathlib import Path
 from fogbench.console import Progress
 from fogbench.outputs.folders import Claim, OutDirError, check_out_dir
 from fogbench.report import write_run_dir
-from fogbench.report.fmt import ci_text, fmt, md_table, p_better_text
+from fogbench.report.fmt import (ci_text, failed_everywhere, failed_text, fmt, md_table,
+                                  p_better_text)
 from fogbench.run.engines import SerialExecutor, check_engine, engine_label, make_executor
 from fogbench.run.maps import side
 from fogbench.run.montecarlo import ScenarioMC
@@ -172,7 +173,10 @@ def _protocol_lines(pname: str, pd: dict, mc: dict | None) -> list[str]:
         po = mc["over_runs"].get(pname, {})
         metrics = [m for m in SUMMARY_METRICS if m != "fit_time_s" and any(
             m in po.get(lab, {}) for lab in po)]
-        rows = [[lab] + [ci_text(po[lab].get(m), m) for m in metrics] for lab in po]
+        failed = failed_everywhere(mc, pname)    # last, its first error once, no numbers
+        rows = [[lab] + [ci_text(po[lab].get(m), m) for m in metrics] for lab in po
+                if lab not in failed]
+        rows += [[lab, failed_text(f)] + ["–"] * (len(metrics) - 1) for lab, f in failed.items()]
     else:
         labels = []
         for by_method in pd["runs"].values():

@@ -15,6 +15,7 @@ from fogbench.report.claims import (
     verdict_link,
 )
 from fogbench.report.fmt import (
+    ORACLE_FILTER_NOT,
     ci_text,
     fmt,
     key_metric,
@@ -420,6 +421,11 @@ def _mc_protocol_table(prot, plan, mc: dict) -> list[str]:
         return []
     flag = " (IN-SAMPLE)" if prot.in_sample else ""
     rows = [[lab] + [ci_text(po.get(lab, {}).get(m), m) for m in metrics] for lab in po]
+    withheld = mc.get("oracle_filter_withheld", {}).get(prot.name)
+    if withheld and "oracle_filter" not in po:   # no value where its noise model does not hold
+        reasons = "; ".join(dict.fromkeys(withheld.values()))
+        rows.insert(min(2, len(rows)), ["oracle_filter", f"– ({ORACLE_FILTER_NOT} {reasons})"]
+                    + ["–"] * (len(metrics) - 1))
     L = [f"### `{prot.name}`{flag}: mean over scored runs, over replicates", "",
          md_table(["method"] + metrics, rows), ""]
     spread = mc.get("seed_spread", {}).get(prot.name, {})

@@ -76,6 +76,10 @@ def p_better_text(p: dict) -> str:
     return txt
 
 
+#: How a table says the filter oracle has no value on a piece (the reason follows)
+ORACLE_FILTER_NOT = "filter oracle: not computed,"
+
+
 def metrics_table(by_method: dict, cell=None) -> str:
     """The key metrics of every method on one scored run as a Markdown table: a column per
     key metric any method has, a status column; a failed method's row says why.
@@ -86,6 +90,10 @@ def metrics_table(by_method: dict, cell=None) -> str:
     for lab, m in by_method.items():
         if m.get("status") == "failed":
             rows.append([lab] + ["–"] * len(metrics) + [f"FAILED: {m.get('error', '')}"])
+            continue
+        if m.get("status") == "not computed":   # the filter oracle where its model does not hold
+            rows.append([lab] + ["–"] * len(metrics)
+                        + [f"{ORACLE_FILTER_NOT} {m.get('reason', '')}"])
             continue
         rows.append([lab] + [cell(lab, x, m.get(x)) if cell else fmt(m.get(x), x)
                              for x in metrics] + ["ok"])

@@ -111,6 +111,12 @@ def fig_map(map_doc: dict, k: int, path: Path) -> bool:
     return True
 
 
+def _count_line(point: dict) -> str:
+    """A figure's line under a point: its own replicate count (none where unknown)."""
+    r = point.get("replicates")
+    return "" if r is None else f"\n{r} replicates"
+
+
 def _map_line(c: dict, axes: list[dict], pts: list[dict]):
     """A one-axis map of claim ``c``: each point's mean and interval coloured by verdict, the
     oracle's improvement as a tick beside it, the claimed range shaded; the legend lists the
@@ -138,7 +144,7 @@ def _map_line(c: dict, axes: list[dict], pts: list[dict]):
             used.add("oracle")
     ax.set_xticks(x)
     ax.set_xticklabels([p["labels"][0] + ("\n(the scenario)" if p["base"] else "")
-                        for p in pts], fontsize=8)
+                        + _count_line(p) for p in pts], fontsize=8)
     ax.set_xlabel(axes[0]["name"])
     ys = [y for v in vals if v for y in (v.get("ci_low"), v.get("ci_high"), v.get("mean"),
                                          v.get("oracle_mean") if v.get("oracle_bounds")
@@ -177,7 +183,9 @@ def _grid_cells(map_doc: dict, k: int) -> tuple[list, list, list, list]:
     for p in pts:
         if same and base_p is not None and base_v is not None and all(
                 p["index"][a] == base_p["index"][a] for a in (0, 1) if a not in same):
-            p["scenario_note"] = (f"\nthe scenario's run:\n{_num(base_v['mean'])} % "
+            own = (f" ({base_p['replicates']} replicates)"
+                   if base_p.get("replicates") is not None else "")
+            p["scenario_note"] = (f"\nthe scenario's run{own}:\n{_num(base_v['mean'])} % "
                                   f"[{_num(base_v['ci_low'])}, {_num(base_v['ci_high'])}]")
         p["index"] = [0 if a in same else p["index"][a] for a in (0, 1)]
     axes = [dict(a, labels=[f"any of its {len(a['labels'])} values"],
@@ -207,6 +215,7 @@ def _map_grid(c: dict, vals: list, pts: list, axes: list[dict], same: list):
             txt = f"{_num(v['mean'])} %\n[{_num(v['ci_low'])}, {_num(v['ci_high'])}]"
             if v.get("oracle_mean") is not None and v.get("oracle_bounds"):
                 txt += f"\noracle {_num(v['oracle_mean'])} %"
+            txt += _count_line(p)
             ax.text(j, i, txt + ("\n(the scenario)" if p["base"] else "")
                     + p.get("scenario_note", ""), ha="center",
                     va="center", fontsize=7, color="black",
@@ -224,18 +233,73 @@ def _map_grid(c: dict, vals: list, pts: list, axes: list[dict], same: list):
     return fig, ax
 
 
+def labels_text(labels) -> str:
+    """An axis's labels as one unambiguous line: each quoted, separated by "; " (a label may
+    hold a comma: "wander, 0.5 s")."""
+    return "; ".join(f'"{x}"' for x in labels)
+
+
+def _value_text(v) -> str:
+    """A value a point sets, as the map file writes it (TOML): 0.79, "sine", {type = ...}."""
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, (int, float)):
+        return f"{v:g}" if float(f"{v:g}") == v else repr(v)
+    if isinstance(v, str):
+        return f'"{v}"'
+    if isinstance(v, dict):
+        return "{" + ", ".join(f"{k} = {_value_text(x)}" for k, x in v.items()) + "}"
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_value_text(x) for x in v) + "]"
+    return str(v)
+
+
+def set_text(point: dict) -> str:
+    """What a point sets, in the map file's keys and their units ("fog.arw_deg_rt_h = 0.79;
+    fog.gm_drift_dps = 0"); the scenario's own point sets nothing over it."""
+    sets = point.get("set") or {}
+    if not sets:
+        return "nothing: the scenario's own values" if point.get("base") else "nothing"
+    return "; ".join(f"{k} = {_value_text(v)}" for k, v in sets.items())
+
+
+def _replicates(map_doc: dict, point: dict):
+    """A point's own replicate count (the scenario's own point has the scenario's)."""
+    r = point.get("replicates")
+    return map_doc.get("replicates_per_point") if r is None else r
+
+
+def replicates_text(map_doc: dict) -> str:
+    """How many replicates are behind the map's numbers: "20 replicates per point", or, where
+    the scenario's own point has its own count, "20 replicates per point, the scenario's own
+    point its 3"."""
+    r = map_doc["replicates_per_point"]
+    base = next((p for p in map_doc["points"] if p["base"]), None)
+    own = None if base is None else _replicates(map_doc, base)
+    return f"{r} replicates per point" + (
+        f", the scenario's own point its {own}" if own is not None and own != r else "")
+
+
 def render_map(map_doc: dict, fig_names: dict) -> str:
     """The report's "Claim maps" section."""
+    from fogbench.report.fmt import md_table
+
+    reps = replicates_text(map_doc) + ", the scenario's own seeds"
     L = ["## Claim maps", "",
          "Each claim at every point of the scenario's map: the scenario with the values each "
-         f"point sets ({map_doc['replicates_per_point']} replicates per point, the scenario's "
-         "own seeds; the point marked \"the scenario\" is this report's own run). Mean "
-         "improvement [95 % interval], the verdict, and the oracle's improvement where it bounds "
-         "the claim (the oracle of the deterministic terms for a model of them; the filter "
-         "oracle, the best estimate given the true noise model, for a filter).", ""]
+         f"point sets ({reps}; the point marked \"the scenario\" is this report's own run). "
+         "Mean improvement [95 % interval], the verdict, and the oracle's improvement where it "
+         "bounds the claim (the oracle of the deterministic terms for a model of them; the "
+         "filter oracle, the best estimate given the true noise model, for a filter).", ""]
     for a in map_doc["axes"]:
-        L.append(f"- axis **{a['name']}**: {', '.join(a['labels'])}. Range from: {a['source']}")
+        L.append(f"- axis **{a['name']}** ({len(a['labels'])} values): "
+                 f"{labels_text(a['labels'])}. Range from: {a.get('source', '')}")
     L.append("")
+    L += ["What each point sets (the map file's keys, in their units) and the replicates "
+          "behind its numbers:", "",
+          md_table(["point", "sets", "replicates"],
+                   [[p["label"] + (" (the scenario)" if p["base"] else ""), set_text(p),
+                     str(_replicates(map_doc, p))] for p in map_doc["points"]]), ""]
     for k, c in enumerate(map_doc["claims"]):
         flag = " (IN-SAMPLE)" if c.get("in_sample") else ""
         L += [f"### {c['text']} (`{c['protocol']}`{flag})", "",
@@ -247,7 +311,7 @@ def render_map(map_doc: dict, fig_names: dict) -> str:
         for a in no_effect_axes(map_doc, k):
             ax = map_doc["axes"][a]
             L += [f"**{ax['name']}** does not change this claim: at every value "
-                  f"({', '.join(ax['labels'])}) each point the map ran has the same "
+                  f"({labels_text(ax['labels'])}) each point the map ran has the same "
                   "improvement, interval and verdict (the protocol does not score what that "
                   "axis changes), so the figure draws one line of cells for it: the map's "
                   "numbers" + (", with the scenario's own run (its own replicates) noted in "
@@ -256,30 +320,28 @@ def render_map(map_doc: dict, fig_names: dict) -> str:
         rows = []
         for v, p in zip(c["points"], map_doc["points"]):
             label = p["label"] + (" (the scenario)" if p["base"] else "")
+            n = str(_replicates(map_doc, p))
             if v is None:
-                rows.append([label, "-", "not run", "-"])
+                rows.append([label, n, "-", "not run", "-"])
                 continue
             verdict = v["verdict"] + (f" ({v['side'].removesuffix(' of')})" if v.get("side")
                                       else "")
             oracle = (f"{_num(v['oracle_mean'])} [{_num(v['oracle_ci_low'])}, "
                       f"{_num(v['oracle_ci_high'])}]" if v.get("oracle_mean") is not None
                       and v.get("oracle_bounds") else "-")
-            rows.append([label, f"{_num(v['mean'])} [{_num(v['ci_low'])}, "
-                                f"{_num(v['ci_high'])}] %", verdict, oracle])
-        from fogbench.report.fmt import md_table
-
-        L += [md_table(["point", "improvement", "verdict", "oracle"], rows), ""]
+            rows.append([label, n, f"{_num(v['mean'])} [{_num(v['ci_low'])}, "
+                                   f"{_num(v['ci_high'])}] %", verdict, oracle])
+        L += [md_table(["point", "replicates", "improvement", "verdict", "oracle"], rows), ""]
     if map_doc.get("metrics"):
-        from fogbench.report.fmt import md_table
-
         L += ["### Metrics at every point", "",
               "Mean [95 % interval] over replicates of the mean over the protocol's scored runs "
               "(units in the metric names).", ""]
-        head = ["point"] + [f"{m['protocol']}: {m['method']} {m['metric']}"
-                            for m in map_doc["metrics"]]
+        head = ["point", "replicates"] + [f"{m['protocol']}: {m['method']} {m['metric']}"
+                                          for m in map_doc["metrics"]]
         rows = []
         for i, p in enumerate(map_doc["points"]):
-            row = [p["label"] + (" (the scenario)" if p["base"] else "")]
+            row = [p["label"] + (" (the scenario)" if p["base"] else ""),
+                   str(_replicates(map_doc, p))]
             for m in map_doc["metrics"]:
                 v = m["points"][i]
                 row.append("-" if not v or v.get("mean") is None else

@@ -16,6 +16,7 @@ from fogbench.report.claims import (
     verdict_link,
 )
 from fogbench.report.fmt import (
+    ORACLE_FILTER_NOT,
     ci_text,
     failed_everywhere,
     failed_text,
@@ -453,6 +454,11 @@ def _mc_protocol_table(prot, plan, mc: dict) -> list[str]:
     # a method that failed in every replicate: last, its first error once, no numbers
     rows = [[lab] + [ci_text(po.get(lab, {}).get(m), m) for m in metrics] for lab in po
             if lab not in failed]
+    withheld = mc.get("oracle_filter_withheld", {}).get(prot.name)
+    if withheld and "oracle_filter" not in po:   # no value where its noise model does not hold
+        reasons = "; ".join(dict.fromkeys(withheld.values()))
+        rows.insert(min(2, len(rows)), ["oracle_filter", f"– ({ORACLE_FILTER_NOT} {reasons})"]
+                    + ["–"] * (len(metrics) - 1))
     rows += [[lab, failed_text(f)] + ["–"] * (len(metrics) - 1) for lab, f in failed.items()]
     L = [f"### `{prot.name}`{flag}: mean over scored runs, over replicates", "",
          md_table(["method"] + metrics, rows), ""]

@@ -161,10 +161,27 @@ _SIGNED = ("mean_error_dph",)
 def _labels(docs: list[dict], plan) -> list[str]:
     """The rows of every table: raw, the oracle(s) (the filter's when computed), the methods."""
     labels = ["raw", "oracle"] + [m.label for m in plan.methods]
-    if any("oracle_filter" in by for d in docs for p in d["protocols"].values()
-           for by in p.get("runs", {}).values()):
+    if any(isinstance(by.get("oracle_filter"), dict)
+           and by["oracle_filter"].get("status") != "not computed"
+           for d in docs for p in d["protocols"].values() for by in p.get("runs", {}).values()):
         labels.insert(2, "oracle_filter")
     return labels
+
+
+def oracle_filter_withheld(docs: list[dict]) -> dict:
+    """protocol -> run -> why the filter oracle has no value there, where its noise model does
+    not hold (``fogbench.run.runner.oracle_filter_reason``; the reasons of every replicate)."""
+    out: dict = {}
+    for d in docs:
+        for prot, p in d["protocols"].items():
+            for run, by in p.get("runs", {}).items():
+                m = by.get("oracle_filter")
+                if isinstance(m, dict) and m.get("status") == "not computed":
+                    have = out.setdefault(prot, {}).setdefault(run, [])
+                    if m.get("reason") not in have:
+                        have.append(m.get("reason"))
+    return {prot: {run: "; ".join(r for r in reasons if r) for run, reasons in by.items()}
+            for prot, by in out.items()}
 
 
 def _scored_runs(docs: list[dict], prot: str) -> list[str]:
@@ -463,6 +480,7 @@ def aggregate(docs: list[dict], sc, plan) -> dict:
     return {"replicates": len(docs), "summary": summary, "over_runs": over_runs,
             "seed_spread": seed_spread, "claims": claims, "rankings": rankings,
             "lab_cost": lab_cost, "failed_methods": {p: f for p, f in failed_methods.items() if f},
+            "oracle_filter_withheld": oracle_filter_withheld(docs),
             "series": series, "start_series": start_series,
             "interval": "95 % Student t-interval of the mean over replicates "
                         "(fogbench.run.stats.summarize)"}

@@ -69,6 +69,8 @@ class Piece:
     #                                       reference: the lab's, sim/lab.py; None: the truth)
     saturated: np.ndarray | None = None   # (n,) float: fraction of the samples clipped (0 or 1
     #                                       unsmoothed; the fraction of the block when smoothed)
+    unmodelled: tuple[str, ...] = ()      # the error terms outside the filter oracle's noise
+    #                                       model that vary over the piece (:func:`varying_terms`)
 
     def gyro(self) -> GyroData:
         return GyroData(rate=self.raw, fs=self.fs, g=self.g, temp=self.temp,
@@ -143,13 +145,45 @@ def make_piece(rd: RunData, sel: Selection, prot: Protocol, axis_j: int,
         cols = {c: v[sel.offset::sel.stride] for c, v in cols.items()}
     if cols["raw"].size == 0:
         raise ValueError(f"selection {sel.describe()} of protocol {prot.name!r} has no samples")
-    return Piece(run=rd.run.name, fs=fs, **cols)
+    # (smoothed pieces are not the filter oracle's: their terms are not looked at)
+    unmodelled = () if prot.smooth_s else \
+        varying_terms(rd, axis_j, idx[sel.offset::sel.stride] if sel.stride > 1 else idx)
+    return Piece(run=rd.run.name, fs=fs, unmodelled=unmodelled, **cols)
+
+
+#: The error terms the filter oracle's noise model carries (:func:`noise_autocovariance`):
+#: every other term is inside it only where it is constant over the piece (then it is part of
+#: the constant the oracle estimates)
+ORACLE_FILTER_NOISE_TERMS = ("arw", "bias_instability", "gm_drift", "quantization")
+
+#: A term is constant over a piece when its standard deviation there is at most this fraction
+#: of its largest size (a constant term varies by rounding only, ~1e-12; the terms that move
+#: vary by tenths of their size)
+CONSTANT_RTOL = 1e-6
+
+
+def varying_terms(rd: RunData, axis_j: int, idx: np.ndarray) -> tuple[str, ...]:
+    """The true error terms of the samples ``idx`` of a run that the filter oracle's noise
+    model lacks and that are not constant there: a temperature term where the temperature
+    moves, g-sensitivity where the specific force changes, scale factor or misalignment where
+    the rates change, a rate ramp, a rate random walk, clipping (in ``sim.fog``'s order)."""
+    out = []
+    for name, v in rd.fog.terms.items():
+        if name in ORACLE_FILTER_NOISE_TERMS:
+            continue
+        x = np.asarray(v[idx, axis_j], dtype=float)
+        if x.size > 1 and np.std(x) > CONSTANT_RTOL * np.max(np.abs(x)):
+            out.append(name)
+    return tuple(out)
 
 
 def concat(pieces: list[Piece]) -> Piece:
     if len(pieces) == 1:
         return pieces[0]
-    return Piece(run="+".join(p.run for p in pieces), fs=pieces[0].fs,
+    # (a term constant in each piece but not across them is not seen: a joined piece is a fit
+    # piece, which the filter oracle never scores)
+    unmodelled = tuple(dict.fromkeys(n for p in pieces for n in p.unmodelled))
+    return Piece(run="+".join(p.run for p in pieces), fs=pieces[0].fs, unmodelled=unmodelled,
                  **{c: np.concatenate([getattr(p, c) for p in pieces])
                     for c in ("t", "raw", "truth", "g", "temp", "temp_rate", "oracle", "ref",
                               "saturated")})
@@ -275,7 +309,8 @@ def _lab_references(sc, plan, data: dict, seeds: dict) -> dict:
 
 
 def _score_references(items: list[Scored], sc) -> None:
-    """Score raw, the oracle and (where it is computed) the filter oracle on every piece."""
+    """Score raw, the oracle and (where it is computed) the filter oracle on every piece; where
+    the filter oracle's noise model does not hold, its entry says so (no value, the reason)."""
     for it in items:
         it.outputs["raw"] = it.piece.raw
         it.outputs["oracle"] = it.piece.oracle
@@ -284,6 +319,12 @@ def _score_references(items: list[Scored], sc) -> None:
         of = oracle_filter(it.piece, sc.fog, sc.fs)
         if of is not None:
             it.metrics["oracle_filter"] = score(of, it.piece, it.metrics["raw"])
+        elif it.piece.unmodelled and oracle_filter_reason(it.piece, sc.fog, sc.fs) == \
+                outside_model_reason(it.piece.unmodelled):
+            # a piece it would apply to but whose terms its model lacks: no value, the reason
+            # (the other pieces, moving, smoothed, gapped, long, are not the filter oracle's)
+            it.metrics["oracle_filter"] = {"status": "not computed",
+                                           "reason": outside_model_reason(it.piece.unmodelled)}
 
 
 def _score_fit(model, rec: dict, items: list[Scored], label: str, first: bool,
@@ -395,26 +436,66 @@ def noise_autocovariance(params, fs: float, n: int) -> np.ndarray:
     return c
 
 
+#: How a report names each term the filter oracle's noise model lacks (:func:`varying_terms`)
+TERM_PHRASES = {"temperature": "a temperature drift", "rrw": "a rate random walk",
+                "rate_ramp": "a rate ramp",
+                "g_sensitivity": "a g-sensitivity error that changes with the specific force",
+                "g2_sensitivity": "a g^2-sensitivity error that changes with the specific force",
+                "scale_factor": "a scale-factor error that changes with the rate",
+                "misalignment": "a misalignment error that changes with the rates",
+                "saturation": "clipping at the measurement range"}
+
+
+def outside_model_reason(terms: tuple[str, ...]) -> str:
+    """Why the filter oracle is not computed on a piece with these varying terms, in a phrase:
+    "the piece has a temperature drift and a rate random walk the noise model lacks"."""
+    names = [TERM_PHRASES.get(t, f"a varying {t} term") for t in terms]
+    listed = names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]
+    return f"the piece has {listed} the noise model lacks"
+
+
+def oracle_filter_reason(piece: Piece, params, fs_run: float) -> str | None:
+    """Why the filter oracle is not computed on ``piece`` (None: it is). Its model is a
+    constant plus the stationary noise of :func:`noise_autocovariance` (white rate,
+    Gauss-Markov drift, flicker, quantisation); it does not apply to a piece too short or too
+    long (``ORACLE_FILTER_MAX_SAMPLES``), smoothed, gapped, on a rate that is not constant, or
+    of a device without noise, and it does not hold where an error term outside that model
+    varies over the piece (``Piece.unmodelled``: a temperature drift, a rate random walk, a
+    ramp, ...; a constant term, such as a bias, is part of the constant it estimates). Only
+    the last is a piece where a filter claim could otherwise be bounded by it: the runner
+    records that reason (:func:`_score_references`)."""
+    n = piece.raw.size
+    if n < 2:
+        return "the piece has fewer than 2 samples"
+    if n > ORACLE_FILTER_MAX_SAMPLES:
+        return f"the piece has more than {ORACLE_FILTER_MAX_SAMPLES} samples"
+    if abs(piece.fs - fs_run) > 1e-9 * fs_run:
+        return "the piece is smoothed"
+    if np.any(np.diff(piece.t) > 1.5 / piece.fs):
+        return "the piece has gaps"
+    noise = piece.raw - piece.truth
+    if np.std(piece.truth) > 0.01 * max(np.std(noise), 1e-300):
+        return "the true rate is not constant"
+    if not noise_autocovariance(params, piece.fs, 1)[0] > 0:
+        return "the device has no noise"
+    if piece.unmodelled:
+        return outside_model_reason(piece.unmodelled)
+    return None
+
+
 def oracle_filter(piece: Piece, params, fs_run: float) -> np.ndarray | None:
     """The best a denoiser can do on a piece whose true rate is constant, given the true noise
     model: the generalised least-squares estimate of that constant, weighted by the inverse of
     the noise's covariance (``noise_autocovariance``, a Toeplitz solve), output at every
     sample. A filter claim that asks more than it gives is untestable, as a compensation claim
-    beyond the oracle of the deterministic terms is. None where it does not apply: a moving
-    table, a smoothed or gapped piece, no noise, or more than ``ORACLE_FILTER_MAX_SAMPLES``."""
+    beyond the oracle of the deterministic terms is. None where it does not apply or its model
+    does not hold (:func:`oracle_filter_reason` says why)."""
     from scipy.linalg import solve_toeplitz
 
+    if oracle_filter_reason(piece, params, fs_run) is not None:
+        return None
     n = piece.raw.size
-    if n < 2 or n > ORACLE_FILTER_MAX_SAMPLES or abs(piece.fs - fs_run) > 1e-9 * fs_run:
-        return None
-    if np.any(np.diff(piece.t) > 1.5 / piece.fs):
-        return None
-    noise = piece.raw - piece.truth
-    if np.std(piece.truth) > 0.01 * max(np.std(noise), 1e-300):
-        return None
     c = noise_autocovariance(params, piece.fs, n)
-    if not c[0] > 0:
-        return None
     w = solve_toeplitz(c, np.ones(n))
     return np.full(n, float(w @ piece.raw / w.sum()))
 

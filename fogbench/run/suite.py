@@ -211,8 +211,10 @@ def _claim_line(c: dict) -> str:
 
 def _map_lines(name: str, mp: dict) -> list[str]:
     """The claim maps of a scenario: each claim's sentence over the map's points."""
-    L = [f"Claim maps ({', '.join(a['name'] for a in mp['axes'])}; "
-         f"{mp['replicates_per_point']} replicates per point):", ""]
+    from fogbench.report.maps import replicates_text
+
+    L = [f"Claim maps ({'; '.join(a['name'] for a in mp['axes'])}; "
+         f"{replicates_text(mp)}):", ""]
     for c in mp["claims"]:
         tag = " (in-sample)" if c["in_sample"] else ""
         L.append(f"- \"{c['text']}\" — `{c['protocol']}`{tag}: {c['sentence']}.")

@@ -503,3 +503,56 @@ values = [0.06, 0.09]
         assert str(tmp_path / folder) in last, last
         assert len(list((tmp_path / folder).glob("r*.json"))) >= 1
     assert scenario_dir   # the module whose note this is
+
+
+def test_a_map_report_states_each_point_s_values_one_label_list_and_each_cell_s_count(
+        tmp_path, monkeypatch):
+    """The map's report said "3 replicates per point" where the scenario's own cell had 20,
+    joined labels holding commas ("wander, 0.5 s") into one ambiguous list, and never said what
+    a point sets: each point's values (the map file's keys, their units), the labels quoted
+    and separated by ";", each cell's own count (report, figure, suite summary)."""
+    import matplotlib.pyplot as plt
+
+    from fogbench.outputs import files as IO
+    from fogbench.report import maps as MR
+    from fogbench.run.suite import _map_lines
+
+    kept = []
+    monkeypatch.setattr(IO, "save_figure", lambda fig, path: kept.append(fig))
+    labels = ["white noise", "wander, 0.5 s", "wander, 2 s (preset)"]
+    sets = [{"fog.gm_drift_dps": 0.0, "fog.arw_deg_rt_h": 0.79},
+            {"fog.gm_drift_dps": 0.139, "fog.gm_time_constant_s": 0.5}, {}]
+    points = [{"index": [i], "labels": [x], "label": x, "set": sets[i], "base": i == 2,
+               "replicates": 20 if i == 2 else 3, "failed_replicates": 0}
+              for i, x in enumerate(labels)]
+    pt = {"verdict": "agrees", "mean": 61.0, "ci_low": 57.0, "ci_high": 65.0, "n": 3,
+          "held": 0.9, "oracle_mean": None, "oracle_bounds": False, "side": None}
+    claim = {"text": "the WNN beats the Kalman filter", "protocol": "held_out",
+             "in_sample": False, "metric": "std_dps", "better": "wnn", "than": "kalman",
+             "min_pct": 50.0, "max_pct": None, "points": [pt, pt, pt], "source": "paper 000",
+             "sentence": "holds everywhere"}
+    doc = {"axes": [{"name": "source of the 0.13 deg/s", "labels": labels, "numeric": None,
+                     "source": "paper 000"}],
+           "points": points, "claims": [claim], "replicates_per_point": 3}
+    lines = MR.render_map(doc, {}).splitlines()
+    assert ("- axis **source of the 0.13 deg/s** (3 values): \"white noise\"; "
+            "\"wander, 0.5 s\"; \"wander, 2 s (preset)\". Range from: paper 000") in lines
+    assert "| white noise | fog.gm_drift_dps = 0; fog.arw_deg_rt_h = 0.79 | 3 |" in lines
+    assert "| wander, 0.5 s | fog.gm_drift_dps = 0.139; fog.gm_time_constant_s = 0.5 | 3 |" \
+        in lines
+    assert ("| wander, 2 s (preset) (the scenario) | nothing: the scenario's own values | 20 |"
+            in lines)
+    assert "3 replicates per point, the scenario's own point its 20" in lines[2]
+    assert "| wander, 2 s (preset) (the scenario) | 20 | +61.0 [+57.0, +65.0] % | agrees | - |" \
+        in lines
+    assert "| wander, 0.5 s | 3 | +61.0 [+57.0, +65.0] % | agrees | - |" in lines
+    assert MR.fig_map(doc, 0, tmp_path / "m.png")
+    ticks = [t.get_text() for t in kept[-1].axes[0].get_xticklabels()]
+    assert ticks == ["white noise\n3 replicates", "wander, 0.5 s\n3 replicates",
+                     "wander, 2 s (preset)\n(the scenario)\n20 replicates"]
+    plt.close(kept[-1])
+    assert "3 replicates per point, the scenario's own point its 20" in _map_lines("s", doc)[0]
+    # every point with the map's count: one number
+    for p in points:
+        p["replicates"] = 3
+    assert "(3 replicates per point, the scenario's own seeds;" in MR.render_map(doc, {})

@@ -811,3 +811,39 @@ def test_a_thermal_log_with_a_gap_is_refused_without_offering_a_split(tmp_path):
     assert code == 2 and str(t) in line and "gap of 11 s" in line, err
     assert "needs one continuous record" in line and "--gaps split" not in line, line
     assert not dev.exists()
+
+
+def test_a_scenario_on_another_axis_than_the_devices_mounting_is_refused_or_warned(tmp_path):
+    """A device file records its mounting (input_axis): a scenario whose sensitive axes differ
+    is refused when the device has g terms (they would multiply the wrong components of the
+    specific force), warned of when it has none, both naming the two axes; the same axis, and
+    an older file without the key, load without a word."""
+    import warnings
+
+    tac = preset_text("tactical")                      # g_sens_dph_per_g = [0.1, 0.1, 0.1]
+    (tmp_path / "x.toml").write_text(tac + 'input_axis = "x"\n')
+    (tmp_path / "old.toml").write_text(tac)
+    noise = "arw_deg_rt_h = 0.03\nbias_dph = 1.0\n"
+    (tmp_path / "noise_x.toml").write_text(noise + 'input_axis = "x"\n')
+    assert load_device_file(tmp_path / "x.toml")["input_axis"] == "x"   # alone: no axes
+
+    def scenario(device, axes=None):
+        s = tmp_path / "s.toml"
+        s.write_text(SMALL_SCENARIO.replace('preset = "tactical"', f'device = "{device}"'
+                                            + (f"\naxes = {axes}" if axes else "")))
+        return s
+
+    with pytest.raises(ScenarioError) as exc:
+        _load(scenario("x.toml"))                      # axes default ["z"]
+    msg = str(exc.value)
+    assert "input_axis = 'x'" in msg and "axes = ['z']" in msg and "g terms" in msg, msg
+    with pytest.raises(ScenarioError, match=r"axes = \['x', 'y'\]"):
+        _load(scenario("x.toml", '["x", "y"]'))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert _load(scenario("x.toml", '["x"]')).axes == ("x",)
+        assert _load(scenario("old.toml")).axes == ("z",)             # older file: no key
+    with pytest.warns(UserWarning, match=r"input_axis = 'x'.*axes = \['z'\]"):
+        _load(scenario("noise_x.toml"))
+    schema = __import__("fogbench.scenario.device_file", fromlist=["x"]).fog_json_schema()
+    assert schema["properties"]["input_axis"]["enum"] == ["x", "y", "z"]

@@ -93,7 +93,8 @@ def round_trip(case: RoundTrip, seeds: int = 20, logs: int = 8) -> dict:
         for k in range(logs):
             z = z_long if k == 0 else z_short
             y = simulate_fog(params, case.fs, z, z, axes=("z",), seed=1000 * seed + k).raw[:, 0]
-            recs.append(StaticLog(f"s{k}", y, case.fs))
+            recs.append(StaticLog(f"s{k}", y, case.fs, f=(0.0, 0.0, 0.0),
+                                  f_source="zero specific force (simulated so)"))
         mlog, gtruth, full_scale = _multipos(case.preset, case.fs, 1000 * seed + 999)
         fit = fit_device(recs, multipos=mlog, full_scale=full_scale)
         known = {**truth, **gtruth}

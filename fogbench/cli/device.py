@@ -71,7 +71,10 @@ def _add_fit(sub) -> None:
     f.add_argument("--latitude-deg", type=float, help="latitude of the static logs, deg: the "
                    "bias is corrected for the Earth rate")
     f.add_argument("--input-axis", choices=("up", "down", "level"), help="the gyro's input "
-                   "axis during the static logs (with --latitude-deg)")
+                   "axis during the static logs: with --latitude-deg, the Earth rate's "
+                   "projection; with --multipos, up or down states their attitude (specific "
+                   "force +-1 g along the input axis) for a static log without acc_x/y/z "
+                   "columns, whose bias the fitted g terms are taken out of")
     f.add_argument("--heading-deg", type=float, help="--input-axis level: its heading from "
                    "north, deg")
     f.add_argument("--ci", type=float, help="probability content of the intervals (default "

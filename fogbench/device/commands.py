@@ -195,8 +195,8 @@ def _check_where(opts: FitOptions) -> None:
             if not (math.isfinite(opts.heading_deg) and -360 <= opts.heading_deg <= 360):
                 raise LogError(f"--heading-deg: expected -360 to 360, got "
                                f"{_fmt_number(opts.heading_deg)}")
-    elif opts.input_axis is not None or opts.heading_deg is not None:
-        raise LogError("--input-axis/--heading-deg: only with --latitude-deg")
+    elif opts.heading_deg is not None:
+        raise LogError("--heading-deg: only with --latitude-deg (and --input-axis level)")
 
 
 def _log_identity(path) -> tuple:
@@ -263,11 +263,22 @@ def _check_fit_flags(opts: FitOptions) -> float:
 def _read_fit_logs(opts: FitOptions):
     """(static logs, curve, thermal log, multi-position log) as :func:`fit_device` takes them,
     each log's summary said on stderr."""
+    from dataclasses import replace
+
     statics = []
     for p in opts.static:
-        s, log = _read_static(p, opts)
+        s, log = _read_static(p, opts, acc=bool(opts.multipos))
         print(log.describe(), file=sys.stderr)
+        if s.f is None and opts.input_axis in ("up", "down"):
+            # the stated attitude: the input axis vertical, the specific force +-1 g along it
+            f = [0.0, 0.0, 0.0]
+            f["xyz".index(s.axis)] = 1.0 if opts.input_axis == "up" else -1.0
+            s = replace(s, f=tuple(f), f_source=f"stated: --input-axis {opts.input_axis}")
         statics.append(s)
+    if len({s.axis for s in statics}) > 1:
+        raise LogError("--static: the logs' gyro columns are on different body axes (" + ", ".join(
+            f"{s.name}: {s.column}" for s in statics) + "); a device file is one gyro: choose "
+            "it with --axis, or map the columns with --column gyro_x=HEADER:UNIT")
     if len({s.fs for s in statics}) > 1:
         raise LogError("--static: the logs have different sample rates (" + ", ".join(
             f"{s.name}: {s.fs:g} Hz" for s in statics) + "); a device file is fitted at one")
@@ -337,7 +348,8 @@ def fit(opts: FitOptions) -> int:
         earth = earth_projection(opts.latitude_deg, opts.input_axis, opts.heading_deg or 0.0)
     try:
         result = fit_device(statics, curve, earth, ci, opts.min_tau_s, thermal, multipos,
-                            full_scale)
+                            full_scale, input_axis=opts.axis or (statics[0].axis if statics
+                                                                 else None))
     except ValueError as exc:
         raise LogError(f"device fit: {exc}") from None
     result.options = _options_line(opts)

@@ -35,6 +35,13 @@ class StaticLog:
     fs: float
     segments: tuple = ()
     column: str = ""
+    #: the mean specific force along the body axes during the log, in g (3,), or None (not
+    #: known: no accelerometer columns and no stated attitude)
+    f: tuple | None = None
+    #: where ``f`` comes from ("its acc_x/y/z columns", "stated: --input-axis up")
+    f_source: str = ""
+    #: the body axis of its gyro column ("x", "y", "z"; "" unknown)
+    axis: str = ""
 
 
 def earth_projection(latitude_deg: float, input_axis: str, heading_deg: float = 0.0) -> float:
@@ -50,7 +57,8 @@ def earth_projection(latitude_deg: float, input_axis: str, heading_deg: float = 
 
 def fit_device(static: list, curve=None, earth_rate: float | None = None,
                ci: float | None = None, min_tau: float | None = None,
-               thermal=None, multipos=None, full_scale: float | None = None) -> DeviceFit:
+               thermal=None, multipos=None, full_scale: float | None = None,
+               input_axis: str | None = None) -> DeviceFit:
     """A device file's keys from static logs and/or an Allan curve.
 
     Parameters
@@ -79,6 +87,14 @@ def fit_device(static: list, curve=None, earth_rate: float | None = None,
     full_scale : float, optional
         The gyro's full scale, rad/s (a datasheet's): with it the multi-position fit states the
         scale factor's non-linearity at full scale (``sf_nonlinearity_ppm``).
+    input_axis : {"x", "y", "z"}, optional
+        The body axis of the logs' gyro column, written as the device's mounting
+        (``input_axis``): the g terms' components are along the logs' body axes.
+
+    With a multi-position log, the static logs' bias is what is left after the fitted g terms
+    at each static log's own specific force (:attr:`StaticLog.f`; a static log without one is
+    refused): the static mean at an attitude already holds them, and the simulation adds them
+    again at the scenario's specific force.
     """
     from fogcomp.allan import ONE_SIGMA_CI
 
@@ -87,18 +103,39 @@ def fit_device(static: list, curve=None, earth_rate: float | None = None,
     model, pooled, origin = _noise_model(fit, static, curve, ci, min_tau)
     if model is not None:
         _noise_entries(fit, model, origin, curve[3] if curve is not None else static[0].fs)
+    if input_axis is not None:
+        fit.entries.append(Entry("input_axis", input_axis, None, None,
+                                 f"the body axis of the logs' gyro column (gyro_{input_axis}), "
+                                 "sign +: the gyro reads the rate about +" + input_axis
+                                 + "; g_sens_dph_per_g and g2_sens_dph_per_g2 are along the "
+                                 "logs' body axes (acc_x, acc_y, acc_z), the axes a scenario's "
+                                 "specific force is in"))
+    mp = None
+    if multipos is not None:
+        if model is None:
+            raise ValueError("--multipos: the fit weighs the log by the noise model of a static "
+                             "log or an Allan curve; give --static or --curve too")
+        from fogbench.device.multipos import fit_multipos
+
+        for log in static:
+            if log.f is None:
+                raise ValueError(
+                    f"static log {log.name}: no accelerometer columns (acc_x, acc_y, acc_z) and "
+                    "no stated attitude, so the multi-position fit's g terms cannot be taken out "
+                    "of its bias (its mean holds them at its attitude, and the simulation adds "
+                    "them again); give the log's acc_x/y/z columns, or --input-axis up or down "
+                    "if its input axis was vertical")
+        mp = fit_multipos(multipos, _thermal_noise(model, multipos.fs), ci, full_scale)
     if static:
-        _bias_entries(fit, static, pooled, earth_rate, ci)
+        _bias_entries(fit, static, pooled, earth_rate, ci, mp,
+                      multipos.name if multipos is not None else None)
     if thermal is not None:
         if model is None:
             raise ValueError("--thermal: the fit weighs the thermal log by the noise model of "
                              "a static log or an Allan curve; give --static or --curve too")
         _thermal_entries(fit, thermal, ci, bias_given=bool(static), model=model)
     if multipos is not None:
-        if model is None:
-            raise ValueError("--multipos: the fit weighs the log by the noise model of a static "
-                             "log or an Allan curve; give --static or --curve too")
-        _multipos_entries(fit, multipos, ci, model, full_scale)
+        _multipos_entries(fit, multipos, ci, mp, full_scale)
     for key, (_, why) in _NEEDS.items():
         if fit.entry(key) is None and key not in fit.undetermined:
             fit.undetermined[key] = "needs " + why
@@ -165,9 +202,11 @@ def _pooled_static_model(fit: DeviceFit, static: list, ci: float, min_tau):
     return model, where
 
 
-def _bias_entries(fit: DeviceFit, static: list, ref, earth_rate, ci: float) -> None:
-    """The bias (each log's mean rate less the Earth rate's projection) and, with two or more
-    power-ons, its switch-on repeatability (their spread less what each mean's own noise
+def _bias_entries(fit: DeviceFit, static: list, ref, earth_rate, ci: float, mp=None,
+                  mp_name: str | None = None) -> None:
+    """The bias (each log's mean rate less the Earth rate's projection and, with a
+    multi-position fit ``mp``, less its g terms at the log's specific force) and, with two or
+    more power-ons, its switch-on repeatability (their spread less what each mean's own noise
     explains: ``ref``'s Allan deviation at the record's length)."""
     from scipy.stats import chi2, t as student_t
 
@@ -182,12 +221,30 @@ def _bias_entries(fit: DeviceFit, static: list, ref, earth_rate, ci: float) -> N
     corr = (f"less the Earth rate's projection on the input axis "
             f"({earth_rate / DPH:.6g} deg/h)") if earth_rate is not None else \
         "NOT corrected for the Earth rate (give --latitude-deg and --input-axis)"
+    g_sd = 0.0                      # the g terms' part of the bias's uncertainty, deg/h
+    if mp is not None:
+        from fogbench.device.multipos import g_terms_at
+
+        g, g_sd = g_terms_at(mp, np.array([log.f for log in static]))
+        biases = [b - gi for b, gi in zip(biases, g)]
+        g_sd /= DPH
+        corr += (f", less the g terms fitted to {mp_name} at each log's specific force ("
+                 + "; ".join(f"{log.name}: f = [{', '.join(f'{x:.3g}' for x in log.f)}] g from "
+                             f"{log.f_source}, {gi / DPH:.4g} deg/h"
+                             for log, gi in zip(static, g))
+                 + "; their uncertainty added to the interval)")
+        fit.notes.append(
+            f"bias_dph is corrected for the g terms: the static logs' mean rate held "
+            f"{float(np.mean(g)) / DPH:.4g} deg/h of the g terms fitted to {mp_name} at their "
+            f"attitudes (taken out, with +-{g_sd:.3g} deg/h (1 sigma) of the g terms' own "
+            "uncertainty added to its interval); the simulation adds the g terms at the "
+            "scenario's specific force")
     k = len(biases)
     b = np.array(biases) / DPH
     s_in = np.array(sig) / DPH
     if k == 1:
-        fit.entries.append(Entry("bias_dph", float(b[0]), float(b[0] - s_in[0] * _z(ci)),
-                                 float(b[0] + s_in[0] * _z(ci)),
+        h = _z(ci) * math.hypot(s_in[0], g_sd)
+        fit.entries.append(Entry("bias_dph", float(b[0]), float(b[0] - h), float(b[0] + h),
                                  f"mean rate of {static[0].name} {corr}; interval from the "
                                  "noise model's Allan deviation at the record's length"))
         fit.undetermined["switch_on_bias_dph"] = (
@@ -196,6 +253,7 @@ def _bias_entries(fit: DeviceFit, static: list, ref, earth_rate, ci: float) -> N
         return
     mean, sd = float(b.mean()), float(b.std(ddof=1))
     h = float(student_t.ppf(0.5 + ci / 2, k - 1)) * sd / math.sqrt(k)
+    h = math.hypot(h, _z(ci) * g_sd)    # the g terms' error is common to every log
     fit.entries.append(Entry("bias_dph", mean, mean - h, mean + h,
                              f"mean of the {k} logs' mean rates {corr}; t-interval over "
                              "the power-ons"))
@@ -293,13 +351,12 @@ def _thermal_entries(fit: DeviceFit, log, ci: float, bias_given: bool, model) ->
                      "the temperature model explain the record)")
 
 
-def _multipos_entries(fit: DeviceFit, log, ci: float, model, full_scale) -> None:
-    from fogbench.device.multipos import SF_EXCITATION, TERMS, fit_multipos
+def _multipos_entries(fit: DeviceFit, log, ci: float, res: dict, full_scale) -> None:
+    from fogbench.device.multipos import SF_EXCITATION, TERMS
 
     col = f", column {log.column}" if log.column else ""
     fit.inputs.append(f"multi-position log {log.name} ({log.rate.size} samples at {log.fs:g} Hz"
                       f"{col})")
-    res = fit_multipos(log, _thermal_noise(model, log.fs), ci, full_scale)
     how = (f"generalised least squares on {res['block_s']:g} s means of {log.name} (rate less "
            "the reference = constant + g terms of paper 004 eq. 8 + scale factor + "
            "non-linearity), weighted by the fitted noise model (terms the record only bounds "

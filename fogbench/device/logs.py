@@ -25,9 +25,13 @@ def _channel(log, axis: str | None, path) -> str:
     return gyros[0]
 
 
-def _read_static(path, opts) -> tuple[StaticLog, object]:
+def _read_static(path, opts, acc: bool = False) -> tuple[StaticLog, object]:
+    """One gyro channel of a static log; with ``acc``, its accelerometer columns too where it
+    has all three (their mean specific force in g: the log's attitude)."""
+    from fogcomp.units import G0
+
     chans = [f"gyro_{opts.axis}"] if opts.axis else ["gyro_*"]
-    log = opts.read(path, chans)
+    log = opts.read(path, chans + (["acc_*?"] if acc else []))
     ch = _channel(log, opts.axis, path)
     if log.units[ch] == "au":
         raise LogError(f"{path}: column {log.sources[ch]!r} is in raw counts (au); a device "
@@ -36,7 +40,17 @@ def _read_static(path, opts) -> tuple[StaticLog, object]:
     if np.ptp(v) == 0:
         raise LogError(f"{path}: column {log.sources[ch]!r} is constant: a stuck channel has no "
                        "noise to fit")
-    return StaticLog(str(path), v, log.fs, tuple(log.segments), log.sources[ch]), log
+    f, src = None, ""
+    accs = [f"acc_{a}" for a in "xyz"]
+    if acc and all(c in log.channels for c in accs):
+        for c in accs:
+            if log.units[c] == "au":
+                raise LogError(f"{path}: column {log.sources[c]!r} is in raw counts (au); the "
+                               "static log's attitude needs physical units")
+        f = tuple(float(np.mean(log.channels[c])) / G0 for c in accs)
+        src = "its " + ", ".join(log.sources[c] for c in accs) + " columns"
+    return StaticLog(str(path), v, log.fs, tuple(log.segments), log.sources[ch], f=f,
+                     f_source=src, axis=ch.removeprefix("gyro_")), log
 
 
 def _read_thermal(path, opts):

@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["MultiposLog", "TERMS", "design", "estimable", "confounded", "fit_multipos",
-           "lab_program", "six_positions"]
+           "g_terms_at", "lab_program", "six_positions"]
 
 MAX_BLOCKS = 3000              # the fit works on at most 3000 block means (covariance m x m)
 #: The scale factor (and its non-linearity) is in the model only where the reference rate
@@ -190,14 +190,30 @@ def fit_multipos(log: MultiposLog, noise, ci: float, full_scale: float | None = 
     # the noise model's own scale: normal quantiles; scaled up by the residual: Student's t
     z = float(norm.ppf(0.5 + ci / 2)) if scale == 1.0 else float(student_t.ppf(0.5 + ci / 2,
                                                                                dof))
+    cov = np.zeros((X.shape[1], X.shape[1]))
+    cov[np.ix_(used, used)] = cov_s / np.outer(norms[used], norms[used])
     out: dict = {"chi2_per_dof": chi / dof, "block_s": k / log.fs, "blocks": m,
-                 "confounded": confounded(X), "scale_factor_excited": sf_excited}
+                 "confounded": confounded(X), "scale_factor_excited": sf_excited,
+                 "beta": beta, "cov": cov, "estimable": ok, "quantile": z}
     for j, (name, _) in enumerate(TERMS):
         out[name] = (beta[j], beta[j] - z * sd[j], beta[j] + z * sd[j]) if ok[j] else None
     if out["non-linearity"] is not None:
         # k_nl at full scale; without the full scale it stays per rad/s (not a device key)
         out["non-linearity"] = tuple(v * (full_scale or 1.0) for v in out["non-linearity"])
     return out
+
+
+def g_terms_at(res: dict, f) -> tuple[np.ndarray, float]:
+    """(the fitted g and g^2 terms at each specific force of ``f`` (k, 3) in g, rad/s; the
+    standard deviation of their mean) from :func:`fit_multipos`'s result: the terms the log
+    determines only (the others are written 0 in the device file, so the bias keeps them)."""
+    rows = design(np.atleast_2d(np.asarray(f, float)), np.zeros(len(np.atleast_2d(f))))
+    a = np.zeros_like(rows)
+    g = slice(_INDEX["fx"], _INDEX["fx fz"] + 1)
+    a[:, g] = rows[:, g]
+    a[:, ~res["estimable"]] = 0.0
+    abar = a.mean(axis=0)
+    return a @ res["beta"], float(math.sqrt(max(abar @ res["cov"] @ abar, 0.0)))
 
 
 def lab_program(fs: float, hold_s: float = 60.0, rates_dps=(10.0, 50.0, 150.0, 250.0),

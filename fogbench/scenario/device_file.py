@@ -136,12 +136,40 @@ def _misalignment(merged: _Table, kw: dict) -> None:
     kw["misalignment"] = tuple(tuple(x * 1e-3 for x in r) for r in mis)
 
 
-def _fog(tbl: _Table, fs: float) -> tuple[FogParams, str | None, str, tuple[str, ...],
-                                          ThermalModel]:
+def _mounting(merged: _Table, input_axis: str, axes: tuple[str, ...], kw: dict,
+              device: str | None) -> None:
+    """A scenario whose sensitive axes are not the device's input axis: refused when the device
+    has g terms (their components are along the body axes of the gyro's mounting: on another
+    axis they would multiply the wrong components of the specific force), else warned of (the
+    noise and the bias do not depend on the mounting)."""
+    import warnings
+
+    if axes == (input_axis,):
+        return
+    g = any(any(x != 0 for x in (v if isinstance(v[0], (int, float)) else
+                                 [y for r in v for y in r]))
+            for v in (kw.get("g_sens", (0.0,)), kw.get("g2_sens", (0.0,))))
+    what = f"{device}'s" if device else "the [fog] table's"
+    msg = (f"{what} input_axis = {input_axis!r} (the body axis its gyro was mounted along when "
+           f"it was fitted) but the scenario's sensitive axes are axes = {list(axes)}")
+    if g:
+        raise merged.err("axes", msg + ": its g terms (g_sens_dph_per_g, g2_sens_dph_per_g2) are "
+                         f"along the body axes of a gyro on {input_axis}, and would be applied to "
+                         f"the wrong components of the specific force; set axes = "
+                         f"[\"{input_axis}\"]")
+    warnings.warn(f"{merged.file}: [fog]: {msg}; the device has no g terms, so its noise and "
+                  f"bias are simulated on {', '.join(axes)} as fitted on {input_axis}",
+                  stacklevel=2)
+
+
+def _fog(tbl: _Table, fs: float, scenario: bool = False
+         ) -> tuple[FogParams, str | None, str, tuple[str, ...], ThermalModel]:
     """A ``[fog]`` table (or a device file's keys) at the sample rate ``fs``: (the error
     model's parameters in SI, the preset's or device file's name, the numbers' source, the
     sensitive axes, the thermal build, the keys set over the preset). Every read is recorded
-    when :attr:`_Table.recorder` is set, so the validator is the device file's schema."""
+    when :attr:`_Table.recorder` is set, so the validator is the device file's schema.
+    ``scenario``: a scenario's table, whose sensitive ``axes`` are checked against the device's
+    ``input_axis`` (:func:`_mounting`); a device file alone has no axes to check."""
     values, preset_name, source, changed = _base(tbl, fs)
     merged = _Table(values, tbl.where, tbl.file)
     merged.used.add("source")
@@ -156,6 +184,9 @@ def _fog(tbl: _Table, fs: float) -> tuple[FogParams, str | None, str, tuple[str,
         raise merged.err("axes", f"expected 1 to 3 distinct axes among x, y, z, got {list(axes)}")
     _flicker_band(merged, kw, fs)
     _g_terms(merged, kw, axes)
+    input_axis = merged.get("input_axis", "str", None, choices={"x", "y", "z"})
+    if scenario and input_axis is not None:
+        _mounting(merged, input_axis, axes, kw, preset_name)
     _misalignment(merged, kw)
     disabled = merged.get("disabled_terms", "strs", [], choices=set(TERMS))
     kw["disabled"] = tuple(disabled)
@@ -182,6 +213,15 @@ _ANY_KEY_SCHEMAS = {
                           "items": {"type": "array", "minItems": 3, "maxItems": 3, "items": {
                               "type": "number", "minimum": -MISALIGNMENT_LIMIT_MRAD,
                               "maximum": MISALIGNMENT_LIMIT_MRAD}}},
+}
+
+
+_DESCRIPTIONS = {
+    "input_axis": "the device's mounting: the body axis its gyro column measured (sign +, the "
+                  "rate about +axis) in the logs it was fitted to; g_sens_dph_per_g and "
+                  "g2_sens_dph_per_g2 are along those logs' body axes (acc_x, acc_y, acc_z). A "
+                  "scenario whose axes differ is refused when the device has g terms, warned "
+                  "otherwise; absent (older files): not checked",
 }
 
 
@@ -225,6 +265,8 @@ def fog_json_schema() -> dict:
             item["maximum"] = hi
         if key in at_fs:
             item["description"] = "at most the scenario's sample rate (sample_rate_hz)"
+        if key in _DESCRIPTIONS:
+            item["description"] = _DESCRIPTIONS[key]
         if choices is not None:
             item["enum"] = sorted(choices)
         props[key] = item if kind in types else {"type": "array", "items": item}

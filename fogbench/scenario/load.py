@@ -301,7 +301,7 @@ def load_scenario(path: str | Path, extra_sections: tuple[str, ...] = (),
     sc.done()
     table = _table_cfg(_Table(top.get("table", "table", {}), "[table]", file))
     fog_tbl = _Table(top.get("fog", "table"), "[fog]", file)
-    fog, preset, source, axes, thermal_model, changed = _fog(fog_tbl, fs)
+    fog, preset, source, axes, thermal_model, changed = _fog(fog_tbl, fs, scenario=True)
     text = _with_device_text(text, path, fog_tbl.data.get("device"))
     default_thermal = None
     if top.has("thermal"):

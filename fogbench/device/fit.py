@@ -110,22 +110,7 @@ def fit_device(static: list, curve=None, earth_rate: float | None = None,
                                  + "; g_sens_dph_per_g and g2_sens_dph_per_g2 are along the "
                                  "logs' body axes (acc_x, acc_y, acc_z), the axes a scenario's "
                                  "specific force is in"))
-    mp = None
-    if multipos is not None:
-        if model is None:
-            raise ValueError("--multipos: the fit weighs the log by the noise model of a static "
-                             "log or an Allan curve; give --static or --curve too")
-        from fogbench.device.multipos import fit_multipos
-
-        for log in static:
-            if log.f is None:
-                raise ValueError(
-                    f"static log {log.name}: no accelerometer columns (acc_x, acc_y, acc_z) and "
-                    "no stated attitude, so the multi-position fit's g terms cannot be taken out "
-                    "of its bias (its mean holds them at its attitude, and the simulation adds "
-                    "them again); give the log's acc_x/y/z columns, or --input-axis up or down "
-                    "if its input axis was vertical")
-        mp = fit_multipos(multipos, _thermal_noise(model, multipos.fs), ci, full_scale)
+    mp = _g_model(static, multipos, model, ci, full_scale) if multipos is not None else None
     if static:
         _bias_entries(fit, static, pooled, earth_rate, ci, mp,
                       multipos.name if multipos is not None else None)
@@ -136,13 +121,38 @@ def fit_device(static: list, curve=None, earth_rate: float | None = None,
         _thermal_entries(fit, thermal, ci, bias_given=bool(static), model=model)
     if multipos is not None:
         _multipos_entries(fit, multipos, ci, mp, full_scale)
+    _undetermined(fit)
+    return fit
+
+
+def _g_model(static: list, multipos, model, ci: float, full_scale):
+    """The multi-position fit of the g terms (:func:`fogbench.device.multipos.fit_multipos`),
+    weighted by the noise ``model``; every static log must carry its specific force, so that
+    the g terms can be taken out of its bias."""
+    from fogbench.device.multipos import fit_multipos
+
+    if model is None:
+        raise ValueError("--multipos: the fit weighs the log by the noise model of a static "
+                         "log or an Allan curve; give --static or --curve too")
+    for log in static:
+        if log.f is None:
+            raise ValueError(
+                f"static log {log.name}: no accelerometer columns (acc_x, acc_y, acc_z) and "
+                "no stated attitude, so the multi-position fit's g terms cannot be taken out "
+                "of its bias (its mean holds them at its attitude, and the simulation adds "
+                "them again); give the log's acc_x/y/z columns, or --input-axis up or down "
+                "if its input axis was vertical")
+    return fit_multipos(multipos, _thermal_noise(model, multipos.fs), ci, full_scale)
+
+
+def _undetermined(fit: DeviceFit) -> None:
+    """Why every key the fit did not determine is left out: what it needs, or not measured."""
     for key, (_, why) in _NEEDS.items():
         if fit.entry(key) is None and key not in fit.undetermined:
             fit.undetermined[key] = "needs " + why
     for key in _all_fog_keys():
         if fit.entry(key) is None and key not in fit.undetermined:
             fit.undetermined[key] = "not measured by these logs"
-    return fit
 
 
 def _noise_model(fit: DeviceFit, static: list, curve, ci: float, min_tau):

@@ -385,10 +385,8 @@ def _figure(rows: list[dict], path: str) -> None:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from matplotlib.lines import Line2D
 
     from fogbench.outputs import files
-    from fogbench.run.runner import ORACLE_FILTER_MAX_SAMPLES
 
     rows = _figure_rows(rows)
     n = max(len(rows), 1)
@@ -399,7 +397,6 @@ def _figure(rows: list[dict], path: str) -> None:
     color = "#1f4e79"
     scenarios = list(dict.fromkeys(r["scenario"] for r in rows))
     for yi, r in zip(y, rows):
-        v = r["value"]
         group = (r["scenario"], r["protocol"])
         if scenarios.index(r["scenario"]) % 2 == 0:       # every other scenario shaded
             ax.axhspan(yi - 0.5, yi + 0.5, color="0.93", lw=0, zorder=0)
@@ -407,32 +404,7 @@ def _figure(rows: list[dict], path: str) -> None:
         labels.append(f"{r['scenario']} / {r['protocol']} [{_short_metric(r['metric'])}]: "
                       f"{r['method']}" if group != last else r["method"])
         last = group
-        face = "white" if r["in_sample"] else color
-        if v.get("mean") is not None and v["mean"] < FLOOR_PCT:   # far worse than raw
-            ax.plot(FLOOR_PCT, yi, "<", color=color, mfc=face, ms=5)
-            ax.annotate(f"{v['mean']:.3g}", (FLOOR_PCT, yi), xytext=(6, 0),
-                        textcoords="offset points", fontsize=6, va="center")
-        elif v.get("mean") is not None:
-            lo = v.get("ci_low") if v.get("ci_low") is not None else v["mean"]
-            hi = v.get("ci_high") if v.get("ci_high") is not None else v["mean"]
-            ax.errorbar(v["mean"], yi, xerr=[[v["mean"] - max(lo, FLOOR_PCT)],
-                                             [hi - v["mean"]]], fmt="o", color=color,
-                        mfc=face, ms=4, capsize=2, zorder=3)
-        if r.get("sweep"):
-            a, b = r["sweep"]
-            ax.plot([max(a, FLOOR_PCT), b], [yi - 0.3, yi - 0.3], color="0.45", lw=2.0,
-                    solid_capstyle="butt", zorder=2)
-        for lab, c in (("oracle", "black"), ("oracle_filter", "0.55")):
-            o = r.get(lab)
-            if o and o.get("mean") is not None and o["mean"] >= FLOOR_PCT:
-                ax.plot(o["mean"], yi, "|", color=c, ms=9, mew=1.6, zorder=2.5)
-        if _failed_everywhere(r):     # no value to draw: a cross at 0 and why, on its row
-            ax.plot(0.0, yi, "x", color="C3", ms=6, mew=1.5, zorder=3)
-            ax.annotate(_failed_text(r)[:90], (0.0, yi), xytext=(6, 0),
-                        textcoords="offset points", fontsize=6, va="center", color="C3")
-        elif r["failed"]:
-            ax.annotate(f"{r['failed']} failed", (1.0, yi), xycoords=("axes fraction", "data"),
-                        fontsize=6, ha="right", va="center", color="C1")
+        _draw_row(ax, yi, r, color)
     ax.axvline(0.0, color="0.6", lw=0.8)
     left, right = ax.get_xlim()
     ax.set_xlim(max(left, FLOOR_PCT - 5.0), max(right, 5.0))
@@ -441,21 +413,7 @@ def _figure(rows: list[dict], path: str) -> None:
     ax.set_yticklabels(labels, fontsize=6)
     ax.set_xlabel("improvement over raw, % of the metric in [ ] (each scenario's headline "
                   "metric): mean and 95 % interval over replicates", fontsize=8)
-    handles = [Line2D([], [], marker="o", color=color, ls="", label="held out"),
-               Line2D([], [], marker="o", color=color, mfc="white", ls="",
-                      label="in-sample (fitted on what it is scored on)"),
-               Line2D([], [], marker="|", color="black", ls="", ms=9, mew=1.6,
-                      label="oracle (true deterministic terms removed)"),
-               Line2D([], [], marker="|", color="0.55", ls="", ms=9, mew=1.6,
-                      label="filter oracle (best given the true noise model; where every "
-                            "scored piece is static, contiguous and of <= "
-                            f"{ORACLE_FILTER_MAX_SAMPLES:,} samples)"),
-               Line2D([], [], color="0.45", lw=2.0,
-                      label="a sweep: its settings' means, min to max")]
-    if any(_failed_everywhere(r) for r in rows):
-        handles.append(Line2D([], [], marker="x", color="C3", ls="", mew=1.5,
-                              label="failed in every replicate (no value; at 0, its first "
-                                    "error)"))
+    handles = _legend_handles(rows, color)
     ax.legend(handles=handles, fontsize=7, loc="lower center", bbox_to_anchor=(0.5, 1.0),
               ncol=3, frameon=False)
     ax.set_title("Every method across scenarios (ideal-lab twins and sweep settings: "
@@ -463,6 +421,62 @@ def _figure(rows: list[dict], path: str) -> None:
     fig.tight_layout()
     files.save_figure(fig, path)
     plt.close(fig)
+
+
+def _draw_row(ax, yi: float, r: dict, color) -> None:
+    """One row of the figure at height ``yi``: the method's mean and interval (a marker at the
+    floor when far worse than raw), its sweep's range, the oracles' ticks, and its failures."""
+    v = r["value"]
+    face = "white" if r["in_sample"] else color
+    if v.get("mean") is not None and v["mean"] < FLOOR_PCT:   # far worse than raw
+        ax.plot(FLOOR_PCT, yi, "<", color=color, mfc=face, ms=5)
+        ax.annotate(f"{v['mean']:.3g}", (FLOOR_PCT, yi), xytext=(6, 0),
+                    textcoords="offset points", fontsize=6, va="center")
+    elif v.get("mean") is not None:
+        lo = v.get("ci_low") if v.get("ci_low") is not None else v["mean"]
+        hi = v.get("ci_high") if v.get("ci_high") is not None else v["mean"]
+        ax.errorbar(v["mean"], yi, xerr=[[v["mean"] - max(lo, FLOOR_PCT)],
+                                         [hi - v["mean"]]], fmt="o", color=color,
+                    mfc=face, ms=4, capsize=2, zorder=3)
+    if r.get("sweep"):
+        a, b = r["sweep"]
+        ax.plot([max(a, FLOOR_PCT), b], [yi - 0.3, yi - 0.3], color="0.45", lw=2.0,
+                solid_capstyle="butt", zorder=2)
+    for lab, c in (("oracle", "black"), ("oracle_filter", "0.55")):
+        o = r.get(lab)
+        if o and o.get("mean") is not None and o["mean"] >= FLOOR_PCT:
+            ax.plot(o["mean"], yi, "|", color=c, ms=9, mew=1.6, zorder=2.5)
+    if _failed_everywhere(r):     # no value to draw: a cross at 0 and why, on its row
+        ax.plot(0.0, yi, "x", color="C3", ms=6, mew=1.5, zorder=3)
+        ax.annotate(_failed_text(r)[:90], (0.0, yi), xytext=(6, 0),
+                    textcoords="offset points", fontsize=6, va="center", color="C3")
+    elif r["failed"]:
+        ax.annotate(f"{r['failed']} failed", (1.0, yi), xycoords=("axes fraction", "data"),
+                    fontsize=6, ha="right", va="center", color="C1")
+
+
+def _legend_handles(rows: list[dict], color) -> list:
+    """The legend's entries (the failed-everywhere cross only when a row has one)."""
+    from matplotlib.lines import Line2D
+
+    from fogbench.run.runner import ORACLE_FILTER_MAX_SAMPLES
+
+    handles = [Line2D([], [], marker="o", color=color, ls="", label="held out"),
+               Line2D([], [], marker="o", color=color, mfc="white", ls="",
+                      label="in-sample (fitted on what it is scored on)"),
+               Line2D([], [], marker="|", color="black", ls="", ms=9, mew=1.6,
+                      label="oracle (true deterministic terms removed)"),
+               Line2D([], [], marker="|", color="0.55", ls="", ms=9, mew=1.6,
+                      label="filter oracle (best given the true noise model; where every "
+                            "scored piece is static, contiguous, of <= "
+                            f"{ORACLE_FILTER_MAX_SAMPLES:,} samples and its noise model holds)"),
+               Line2D([], [], color="0.45", lw=2.0,
+                      label="a sweep: its settings' means, min to max")]
+    if any(_failed_everywhere(r) for r in rows):
+        handles.append(Line2D([], [], marker="x", color="C3", ls="", mew=1.5,
+                              label="failed in every replicate (no value; at 0, its first "
+                                    "error)"))
+    return handles
 
 
 def _ours(folder: Path) -> bool:

@@ -41,7 +41,11 @@ def _check_one(path: str, first_file: dict) -> str:
         return (f"{path}: ok: claim map of {target} ({sc.name!r}), {len(spec.points)} "
                 f"point(s) over {', '.join(a.name for a in spec.axes)}")
     if is_device_file(path):   # a device file ([fog] device = "..." names it)
-        vals = load_device_file(path)
+        try:
+            vals = load_device_file(path)
+        except ScenarioError as exc:
+            raise ScenarioError(f"{exc} (checked as a device file: it has none of a "
+                                "scenario's tables, [scenario], [[runs]], [fog], ...)") from None
         return f"{path}: ok: device file, {len(set(vals) - {'source'})} key(s)"
     sc = load_scenario(path, extra_sections=RUNNER_SECTIONS)
     plan = load_plan(sc)

@@ -66,8 +66,14 @@ class _Table:
         self.used.add(key)
         if key not in self.data:
             if default is ...:
+                import difflib
+
+                near = difflib.get_close_matches(key, [str(k) for k in self.data
+                                                       if k not in self.used], n=1, cutoff=0.6)
                 raise self.err(key, "missing (required; expected "
-                               f"{_describe(kind, lo, hi, choices, lo_open)})")
+                               f"{_describe(kind, lo, hi, choices, lo_open)})"
+                               + (f"; the table has {near[0]!r}: did you mean {key!r}?"
+                                  if near else ""))
             return default
         v = self.data[key]
         if kind == "float":

@@ -139,3 +139,22 @@ def test_checking_the_scenarios_folder_checks_its_maps_and_devices_too(tmp_path)
     (root / "maps" / "paper000_wnn.toml").write_text("[map]\nreplicates = [")
     code, out, err = run_cli("check", root)
     assert code != 0 and str(root / "maps" / "paper000_wnn.toml") in err, (out, err)
+
+
+def test_a_misspelled_required_key_is_named_beside_the_missing_one(tmp_path):
+    """`sample_rate` for `sample_rate_hz`: the missing key's error names the near one the table
+    has; a file with none of a scenario's tables is said to be checked as a device file."""
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[2] / "scenarios" / "static_gm.toml").read_text()
+    assert "\nsample_rate_hz" in text
+    p = tmp_path / "s.toml"
+    p.write_text(text.replace("\nsample_rate_hz", "\nsample_rate"))
+    code, _, err = run_cli("check", p)
+    line = err.strip().splitlines()[-1]
+    assert code == 2 and "'sample_rate_hz': missing" in line, err
+    assert "the table has 'sample_rate': did you mean 'sample_rate_hz'?" in line, line
+    bare = tmp_path / "bare.toml"
+    bare.write_text('name = "s1"\nsample_rate = 100.0\n')
+    code, _, err = run_cli("check", bare)
+    assert code == 2 and "checked as a device file" in err and "unknown key(s)" in err, err

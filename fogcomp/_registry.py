@@ -181,7 +181,9 @@ def get_method(name: str) -> type:
     if ":" in name:
         return _import_class(name)
     raise KeyError(f"unknown method {name!r}; available: {', '.join(names)} (or a plug-in "
-                   "named module:Class)")
+                   "named module:Class; a plug-in package is found once it is installed in "
+                   "this environment, e.g. .venv/bin/pip install PATH, under the entry point "
+                   "group fogcomp.methods)")
 
 
 def method_id(cls: type) -> str:

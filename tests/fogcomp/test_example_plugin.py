@@ -70,4 +70,5 @@ def test_the_installed_plugin_runs_in_a_scenario_beside_a_builtin(installed, tmp
                            "--with-method", "ar_kalman"], capture_output=True, text=True,
                           env=env, cwd=tmp_path, timeout=300)
     assert done.returncode == 2 and "unknown method 'ar_kalman'" in done.stderr
+    assert "installed in this environment" in done.stderr     # and how it is found
     assert not (tmp_path / "run2").exists()

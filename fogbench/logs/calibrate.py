@@ -144,6 +144,12 @@ def _model_paths(opts: CalibrateOptions, out: _Outputs) -> tuple[Path, Path]:
     if model_path.suffix == ".json":
         model_path = model_path.with_suffix("")
     manifest = model_path.with_name(model_path.name + ".json")
+    if model_path.suffix:        # --out cal.txt: said, not silently cal.txt.json
+        from fogbench.console import note
+
+        note(f"--out {opts.out}: the model is written as {manifest} (a .json manifest, with "
+             "its arrays beside it in .npz where it has any); name it without a suffix or "
+             "with .json")
     out.target(manifest, (opts.log,), recognise=_is_model_manifest, what="model file")
     return model_path, manifest
 

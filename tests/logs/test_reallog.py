@@ -650,3 +650,17 @@ def test_compensate_keeps_the_input_columns_exactly(tmp_path):
     assert run(["compensate", tmp_path / "m", log, "--out", tmp_path / "c.csv.gz"])[0] == 0
     src, out = pd.read_csv(log), pd.read_csv(tmp_path / "c.csv.gz")
     pd.testing.assert_frame_equal(out[src.columns], src, check_exact=True)
+
+
+def test_calibrate_says_where_a_model_named_with_another_suffix_goes(tmp_path):
+    """--out cal.txt: the model goes to cal.txt.json (its manifest), and the command says so
+    rather than leaving the user to look for cal.txt."""
+    log = _log(tmp_path / "log.csv", n=400)
+    code, out, err = run_cli("calibrate", "poly_temp", log, "--rate-dps", "0", "--out",
+                             tmp_path / "cal.txt")
+    assert code == 0, err
+    assert f"the model is written as {tmp_path / 'cal.txt.json'}" in err, err
+    assert (tmp_path / "cal.txt.json").is_file() and not (tmp_path / "cal.txt").exists()
+    code, out, err = run_cli("calibrate", "poly_temp", log, "--rate-dps", "0", "--out",
+                             tmp_path / "plain")
+    assert code == 0 and "the model is written as" not in err, err

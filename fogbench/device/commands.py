@@ -197,6 +197,10 @@ def _check_where(opts: FitOptions) -> None:
                                f"{_fmt_number(opts.heading_deg)}")
     elif opts.heading_deg is not None:
         raise LogError("--heading-deg: only with --latitude-deg (and --input-axis level)")
+    elif opts.input_axis is not None and not opts.multipos:
+        raise LogError("--input-axis: says the static logs' attitude, used with --latitude-deg "
+                       "(the Earth rate's projection) or --multipos (the g terms at that "
+                       "attitude); alone it would change nothing")
 
 
 def _log_identity(path) -> tuple:
@@ -262,7 +266,8 @@ def _check_fit_flags(opts: FitOptions) -> float:
 
 def _read_fit_logs(opts: FitOptions):
     """(static logs, curve, thermal log, multi-position log) as :func:`fit_device` takes them,
-    each log's summary said on stderr."""
+    each log's summary said on stderr, and the multi-position log's gyro axis (None without
+    one); its axis and the static logs' must be one."""
     from dataclasses import replace
 
     statics = []
@@ -279,7 +284,7 @@ def _read_fit_logs(opts: FitOptions):
         raise LogError("--static: the logs' gyro columns are on different body axes (" + ", ".join(
             f"{s.name}: {s.column}" for s in statics) + "); a device file is one gyro: choose "
             "it with --axis, or map the columns with --column gyro_x=HEADER:UNIT")
-    if len({s.fs for s in statics}) > 1:
+    if statics and any(abs(s.fs / statics[0].fs - 1.0) > 1e-3 for s in statics):
         raise LogError("--static: the logs have different sample rates (" + ", ".join(
             f"{s.name}: {s.fs:g} Hz" for s in statics) + "); a device file is fitted at one")
     curve = None
@@ -290,11 +295,17 @@ def _read_fit_logs(opts: FitOptions):
     if opts.thermal:
         thermal, tlog = _read_thermal(opts.thermal, opts)
         print(tlog.describe(), file=sys.stderr)
-    multipos = None
+    multipos, axis = None, None
     if opts.multipos:
         multipos, mlog = _read_multipos(opts.multipos, opts)
         print(mlog.describe(), file=sys.stderr)
-    return statics, curve, thermal, multipos
+        axis = next(c for c in mlog.channels if c.startswith("gyro_"))[-1]
+        if statics and axis != statics[0].axis:
+            raise LogError(f"--multipos {opts.multipos}: its gyro column "
+                           f"{multipos.column!r} is on body axis {axis}, the static logs' on "
+                           f"{statics[0].axis} ({statics[0].column}); a device file is one gyro: "
+                           "choose it with --axis, or map the columns with --column")
+    return statics, curve, thermal, multipos, axis
 
 
 def _options_line(opts: FitOptions) -> list[str]:
@@ -341,7 +352,7 @@ def fit(opts: FitOptions) -> int:
                         what="device file")
     if target.suffix != ".toml":
         raise LogError(f"--out {target}: a device file ends in .toml")
-    statics, curve, thermal, multipos = _read_fit_logs(opts)
+    statics, curve, thermal, multipos, mp_axis = _read_fit_logs(opts)
     full_scale = None if opts.full_scale_dps is None else opts.full_scale_dps * DPS
     earth = None
     if opts.latitude_deg is not None:
@@ -349,7 +360,7 @@ def fit(opts: FitOptions) -> int:
     try:
         result = fit_device(statics, curve, earth, ci, opts.min_tau_s, thermal, multipos,
                             full_scale, input_axis=opts.axis or (statics[0].axis if statics
-                                                                 else None))
+                                                                 else mp_axis))
     except ValueError as exc:
         raise LogError(f"device fit: {exc}") from None
     result.options = _options_line(opts)

@@ -102,7 +102,8 @@ def fit_device(static: list, curve=None, earth_rate: float | None = None,
     fit = DeviceFit(ci=ci)
     model, pooled, origin = _noise_model(fit, static, curve, ci, min_tau)
     if model is not None:
-        _noise_entries(fit, model, origin, curve[3] if curve is not None else static[0].fs)
+        _noise_entries(fit, model, origin, curve[3] if curve is not None else
+                       max(static, key=lambda s: s.rate.size).fs)
     if input_axis is not None:
         fit.entries.append(Entry("input_axis", input_axis, None, None,
                                  f"the body axis of the logs' gyro column (gyro_{input_axis}), "
@@ -191,13 +192,15 @@ def _pooled_static_model(fit: DeviceFit, static: list, ci: float, min_tau):
     from fogcomp.allan import allan_analysis
 
     fs = max(static, key=lambda s: s.rate.size).fs
-    pool = [s for s in static if s.fs == fs]
-    left = [s.name for s in static if s.fs != fs]
+    same = [abs(s.fs / fs - 1.0) <= 1e-3 for s in static]    # rates from time columns differ
+    pool = [s for s, ok in zip(static, same) if ok]           # in their last digits
+    left = [s.name for s, ok in zip(static, same) if not ok]
     segs, off = [], 0
     for s in pool:
         segs += [(off + a, off + b) for a, b in (s.segments or [(0, s.rate.size)])]
         off += s.rate.size
-    joined = StaticLog("pooled", np.concatenate([s.rate for s in pool]), fs, tuple(segs))
+    joined = StaticLog(pool[0].name if len(pool) == 1 else f"the {len(pool)} static logs "
+                       "pooled", np.concatenate([s.rate for s in pool]), fs, tuple(segs))
     _, model = allan_analysis(joined.rate, fs, _octaves(joined, min_tau), ci=ci,
                               segments=segs)
     if len(pool) == 1:

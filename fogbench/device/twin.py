@@ -81,8 +81,9 @@ def curve_test(log_adev: np.ndarray, twin: np.ndarray,
     Returns
     -------
     dict
-        ``statistic``: the log's squared Mahalanobis distance from the twins (log Allan
-        deviations, covariance of the twins shrunk towards its diagonal); ``p_value``: its
+        ``statistic``: the log's squared distance from the twins' mean (log Allan deviations,
+        weighted by the inverse of the twins' covariance shrunk towards its diagonal: with
+        ``shrinkage`` 1, each averaging time by the twins' variance there); ``p_value``: its
         rank, the share of the R + 1 curves (the log's included) whose distance from the
         others is at least the log's; ``taus_used``: where every curve is positive and finite.
 

@@ -402,9 +402,11 @@ def _note_unread(path, frame, found: dict, gyros: list[str]) -> None:
     if unread:
         from fogbench.console import note
 
+        missing = [a for a in ("gyro_x", "gyro_y", "gyro_z") if a not in gyros]
         note(f"{path}: gyro axes read: {', '.join(found[g][0] for g in gyros)}; columns not "
              f"read: {', '.join(unread)} (a gyro axis under another name? map it with "
-             "--column gyro_x=HEADER:UNIT)")
+             f"--column {missing[0]}=HEADER:UNIT"
+             + (f", the axis it is of {', '.join(missing)}" if len(missing) > 1 else "") + ")")
 
 
 def _timing(path, frame, time_col: tuple[str, str], first_line, fs, fs_is_fallback: bool,
@@ -468,7 +470,7 @@ def _timing(path, frame, time_col: tuple[str, str], first_line, fs, fs_is_fallba
                            f"{int(off.sum())} intervals more than {time_tolerance:.0%} off the "
                            f"median {step:.6g} s are cuts)"
                            + _jitter_advice(dt, step, gap, off, time_tolerance))
-    # The mean interval of the longest gap-free piece    # The mean interval of the longest gap-free piece: far less sensitive than the median
+    # The mean interval of the longest gap-free piece: far less sensitive than the median
     # to timestamps rounded to a few decimals.
     a0, b0 = max(segments, key=lambda ab: ab[1] - ab[0])
     if b0 - a0 >= 2:
@@ -524,10 +526,14 @@ def _off_message(t, dt, i: int, step: float, gap, off, time_tolerance: float,
     if can_split:
         advice = "use --gaps split to cut the log at each of them and analyse the pieces together"
         later = " (the gaps still need --gaps split)"
-    else:
+    elif n_gap:
         advice = ("this command needs one continuous record: give a gap-free stretch of the "
                   "log")
         later = " (the gaps still need a gap-free stretch)"
+    else:
+        advice = ("this command needs one regularly sampled record: resample the log to its "
+                  "median interval")
+        later = ""
     if n_jit and need is not None:
         advice += (f"; --time-tolerance {need:g} takes the jitter as regular"
                    + (later if n_gap else ""))

@@ -164,11 +164,12 @@ def _read_channels(opts: AllanOptions, with_acc: bool):
     chans = opts.columns.split(",") if opts.columns else None
     if chans is not None:
         for i, c in enumerate(chans):
-            m = re.fullmatch(r"(gyro_[xyz])(_[a-z0-9]+)?", c.strip())
-            if not m:
+            m = re.fullmatch(r"(gyro_[xyz])(?:_(.+))?", c.strip(), re.IGNORECASE)
+            if not m or (m.group(2) is not None and m.group(2).lower() not in GYRO_UNITS):
                 raise LogError(f"--columns: {c!r} is not a gyro channel (gyro_x, gyro_y, "
-                               "gyro_z, or a column name such as gyro_x_dps)")
-            chans[i] = m.group(1)     # gyro_x_dps, as the results print it: the channel gyro_x
+                               "gyro_z, or a column name with its unit such as gyro_x_dps: "
+                               f"{', '.join(GYRO_UNITS)})")
+            chans[i] = m.group(1).lower()   # gyro_x_dps, as the results print it: gyro_x
     log = opts.read(opts.log, (chans or ["gyro_*"]) + (["acc_*?"] if with_acc else []))
     if chans is None:
         chans = sorted(c for c in log.channels if c.startswith("gyro_"))

@@ -973,3 +973,54 @@ def test_joint_round_trip_reproduces_each_static_logs_mean_the_old_bias_none():
     assert r["before"] == [0, 0], r
     err = np.array(r["bias_error_dph"])
     assert np.all(np.abs(err[:, 0]) > 7.5) and np.all(np.abs(err[:, 1]) < 1.0), err
+
+
+def test_the_logs_of_one_device_fit_are_of_one_gyro_axis_and_input_axis_needs_a_use(tmp_path):
+    """A multi-position log on body axis x beside static logs on z is refused naming both (its
+    g terms would be taken out of the other gyro's bias); --input-axis without --latitude-deg
+    or --multipos, which would change nothing, is refused; nothing is written."""
+    fs = 10.0
+    rng = np.random.default_rng(1)
+    static = _write_log(tmp_path / "static.csv", rng.standard_normal(4000) * 1e-5, fs,
+                        (0, 0, 0))
+    mp = tmp_path / "mp.csv"
+    t = np.arange(200) / fs
+    np.savetxt(mp, np.column_stack([t, rng.standard_normal(200), np.zeros((200, 2)),
+                                    np.ones(200), np.zeros(200)]), delimiter=",",
+               header="time_s,gyro_x_dps,acc_x_g,acc_y_g,acc_z_g,ref_dps", comments="")
+    dev = tmp_path / "d.toml"
+    code, _, err = run_cli("device", "fit", "--static", static, "--multipos", mp,
+                           "--reference", "ref_dps", "--out", dev)
+    line = err.strip().splitlines()[-1]
+    assert code == 2 and "body axis x" in line and "on z" in line and str(mp) in line, err
+    code, _, err = run_cli("device", "fit", "--static", static, "--input-axis", "up",
+                           "--out", dev)
+    assert code == 2 and "--input-axis" in err and "alone it would change nothing" in err, err
+    assert not dev.exists()
+
+
+@pytest.mark.parametrize("header, advice", [
+    ("time_s,gyro_x_dps,GyroY,gyro_z_dps", "--column gyro_y=HEADER:UNIT"),
+    ("time_s,GyroX,GyroY,gyro_z_dps", "--column gyro_x=HEADER:UNIT, the axis it is of gyro_x, "
+                                      "gyro_y"),
+])
+def test_the_unread_column_note_names_the_axis_that_is_missing(tmp_path, header, advice):
+    rng = np.random.default_rng(0)
+    p = tmp_path / "log.csv"
+    p.write_text(header + "\n" + "".join(
+        f"{i * 0.01:.2f},{a:.5f},{b:.5f},{c:.5f}\n"
+        for i, (a, b, c) in enumerate(rng.standard_normal((3000, 3)))))
+    code, _, err = run_cli("allan", p)
+    assert code == 0 and advice in err, err
+
+
+def test_allan_columns_takes_every_unit_spelling_and_refuses_another(tmp_path):
+    rng = np.random.default_rng(0)
+    p = tmp_path / "log.csv"
+    p.write_text("time_s,gyro_x_dps\n" + "".join(
+        f"{i * 0.01:.2f},{a:.5f}\n" for i, a in enumerate(rng.standard_normal(3000))))
+    for name in ("gyro_x", "gyro_x_dps", "gyro_x_deg_s", "GYRO_X_DPS"):
+        code, _, err = run_cli("allan", p, "--columns", name)
+        assert code == 0, (name, err)
+    code, _, err = run_cli("allan", p, "--columns", "gyro_x_bogus")
+    assert code == 2 and "'gyro_x_bogus' is not a gyro channel" in err, err

@@ -119,3 +119,22 @@ def test_paper000s_filter_oracle_keeps_its_value():
         assert runs[run]["oracle_filter"]["rmse_dph"] == pytest.approx(rmse, rel=1e-6), run
     assert all(not it.piece.unmodelled for it in res.scored)
     assert np.isfinite(runs["test_m60"]["oracle_filter"]["std_dps"])
+
+
+def test_a_claim_on_runs_without_the_filter_oracle_is_not_bounded_by_it():
+    """A filter method's claim on a protocol whose runs have no filter-oracle value (withheld
+    there; another protocol has one, so the label exists): the claim is not recorded as bounded
+    by an oracle nobody computed, and its verdict is the claim's own."""
+    from types import SimpleNamespace
+
+    from fogbench.run.aggregate import _claim_on_protocol
+
+    docs = [{"replicate": i, "protocols": {"warm": {"runs": {"r": {
+        "kalman": {"std_dps": 0.5 + 0.01 * i}, "raw": {"std_dps": 1.0}}}}}}
+        for i in range(4)]
+    claim = SimpleNamespace(text="t", source="s", metric="std_dps", better="kalman",
+                            than="raw", min_pct=10.0, max_pct=None)
+    prot = SimpleNamespace(name="warm", in_sample=False)
+    rec = _claim_on_protocol(docs, claim, prot, ["r"], True, "oracle_filter")
+    assert rec is not None and rec["oracle_bounds_claim"] is False, rec
+    assert rec["verdict"] == "agrees", rec

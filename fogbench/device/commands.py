@@ -365,10 +365,11 @@ def fit(opts: FitOptions) -> int:
         raise LogError(f"device fit: {exc}") from None
     result.options = _options_line(opts)
     _write_device_file(out, target, result.to_toml())
+    w = max([36] + [len(e.key) for e in result.entries] + [len(k) for k in result.undetermined])
     for e in result.entries:
-        print(f"{e.key:<36} {_toml_value(e.value):>14} {_entry_interval(e)}")
+        print(f"{e.key:<{w}} {_toml_value(e.value):>14} {_entry_interval(e)}")
     for k, why in result.undetermined.items():
-        print(f"{k:<36} {'-':>14}  {why}")
+        print(f"{k:<{w}} {'-':>14}  {why}")
     for n in result.notes:
         print(f"note: {n}")
     print(f"wrote {target}")

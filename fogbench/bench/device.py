@@ -216,6 +216,7 @@ def joint_round_trip(seeds: int = 20, preset: str = "paper004_gyro", fs: float =
         so = float(vals.get("switch_on_bias_dph", 0.0))
         before = float(np.mean([np.mean(r.rate) for r in recs])) / DPH
         res["bias_error_dph"].append((before - dev.bias / DPH, e.value - dev.bias / DPH))
+        res["preset_bias_dph"] = dev.bias / DPH
         for name, bias in (("after", e.value), ("before", before)):
             ok = 0
             for r in recs:
@@ -247,7 +248,8 @@ def _print_joint(seeds: int) -> None:
             print(f"  {what:<55} logs within {logs:>4} of {m * seeds} "
                   f"({logs / (m * seeds):.0%}), seeds with every log within {all_ok} of "
                   f"{seeds} ({all_ok / seeds:.0%})")
-        print(f"  bias error against the preset's 8.04 deg/h, median |error| (deg/h): before "
+        print(f"  bias error against the preset's {r['preset_bias_dph']:.4g} deg/h, median "
+              "|error| (deg/h): before "
               f"{np.median(np.abs(err[:, 0])):.3g}, after {np.median(np.abs(err[:, 1])):.3g}")
 
 

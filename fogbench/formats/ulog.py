@@ -30,13 +30,13 @@ import gzip
 import io
 import mmap
 import struct
-import sys
 import warnings
 import zlib
 from pathlib import Path
 
 import numpy as np
 
+from fogbench.console import note
 from fogbench.formats.detect import Rows
 
 __all__ = ["read_ulog", "TOPICS", "integral_dt_us"]
@@ -55,11 +55,6 @@ def _error(text: str):
 DECIMATED_BELOW_HZ = 90.0
 #: Topics within this ratio of the fastest one count as equally fast.
 SAME_RATE = 0.9
-
-
-def _note(text: str) -> None:
-    """One ``fogbench: ...`` line on stderr."""
-    print(f"fogbench: {' '.join(str(text).split())}", file=sys.stderr)
 
 
 def _hz(rate: float) -> str:
@@ -184,7 +179,7 @@ def read_ulog(path, topic: str | None):
     rates = {n: _rate(d) for n, d in found.items()}
     if topic is None:
         topic, why = _choose(path, found, rates)
-        _note(f"{path}: topic {topic} read: {why}"
+        note(f"{path}: topic {topic} read: {why}"
               + ("; --topic chooses another" if len(found) > 1 else ""))
     if topic not in found:
         raise _error(f"{path}: no topic {topic!r} with data; gyro topics: "

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import json
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -107,12 +106,12 @@ def _check_checksum(doc: dict, path: Path) -> None:
     """The run's own checksum (key ``sha256``, written with the file): a file whose numbers
     were edited is refused naming it; one without a checksum (written before fogbench kept
     one) is read with a warning."""
+    from fogbench.console import warn
     from fogbench.run.runner import metrics_sha256
 
     if "sha256" not in doc:
-        print(f"fogbench: warning: {path}: no checksum (key 'sha256'; a run written before "
-              "fogbench kept one, or the key was removed): its numbers are compared as they "
-              "are", file=sys.stderr)
+        warn(f"{path}: no checksum (key 'sha256'; a run written before fogbench kept one, "
+             "or the key was removed): its numbers are compared as they are")
     elif doc["sha256"] != metrics_sha256(doc):
         raise CompareError(f"{path}: its content does not match its checksum (key 'sha256'): "
                            "it was edited or damaged after fogbench wrote it; run the scenario "

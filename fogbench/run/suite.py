@@ -9,7 +9,7 @@ import time
 import traceback
 from pathlib import Path
 
-from fogbench.console import Progress
+from fogbench.console import Progress, warn
 from fogbench.outputs.folders import Claim, OutDirError, check_out_dir
 from fogbench.report import write_run_dir
 from fogbench.report.fmt import (ci_text, failed_everywhere, failed_text, fmt, md_table,
@@ -331,7 +331,7 @@ def _write_compare(out: Path, names: list[str]) -> Path | None:
     try:
         return write_compare(dirs, out)
     except Exception as exc:
-        print(f"fogbench: warning: compare: {exc}", file=sys.stderr)
+        warn(f"compare: {exc}")
         return None
 
 
@@ -359,7 +359,7 @@ def run_suite(scenario_dir: Path, out: Path, check: bool = False, jobs: int | No
         except ScenarioError as exc:
             if names and p.stem not in names:
                 # a broken file the user did not ask for: say so, and go on with the others
-                print(f"fogbench: warning: skipped: {exc}", file=sys.stderr)
+                warn(f"skipped: {exc}")
                 continue
             results.append({"path": str(p), "name": p.stem, "ok": False, "wall_s": 0.0,
                             "error": str(exc)})

@@ -97,22 +97,21 @@ _WARNED: set = set()
 
 def _warn_once(file, text: str) -> None:
     """One ``fogbench: warning:`` line, once per process (load_plan runs per replicate)."""
-    import sys
+    from fogbench.console import warn
 
     if (str(file), text) in _WARNED:
         return
     _WARNED.add((str(file), text))
-    print(f"fogbench: warning: {file}: {text}", file=sys.stderr)
+    warn(f"{file}: {text}")
 
 
 def _plugin_warning(file, label: str, why: str) -> None:
-    import sys
+    from fogbench.console import warn
 
     if (str(file), label) in _WARNED:       # once per process (load_plan runs per replicate)
         return
     _WARNED.add((str(file), label))
-    print(f"fogbench: warning: {file}: method {label!r} will be reported as failed: {why}",
-          file=sys.stderr)
+    warn(f"{file}: method {label!r} will be reported as failed: {why}")
 
 
 def _compensation(extra: _Table, sc: Scenario) -> tuple[str, bool, tuple, float]:

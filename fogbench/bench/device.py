@@ -11,9 +11,8 @@ power-on's values (the preset's plus its switch-on draw, paper004_gyro's 0.3 deg
 multi-position log measures its own power-on, not the spread). The issue's criterion: at least
 60 %. The thermal keys: ``tests/device/test_device.py`` (their fit is slower).
 
-:func:`joint_round_trip`: a lab's logs at non-zero-g static attitudes and its multi-position
-program fitted together, the twin against each static log's mean under its own attitude, with
-the bias freed of the g terms and with the static means' mean (before).
+The joint round trip of one gyro's static, thermal and multi-position logs:
+:mod:`fogbench.bench.joint`.
 """
 
 from __future__ import annotations
@@ -27,7 +26,7 @@ import numpy as np
 from fogcomp.units import DPH
 from sim.fog import FogParams, simulate_fog
 
-__all__ = ["CASES", "round_trip", "twin_in_band", "check_power", "joint_round_trip", "run"]
+__all__ = ["CASES", "round_trip", "twin_in_band", "check_power", "run"]
 
 
 @dataclass(frozen=True)
@@ -145,114 +144,6 @@ def twin_in_band(case: RoundTrip, seed: int = 0, replicates: int = 20) -> float:
     return float(np.mean((med >= lo) & (med <= hi)))
 
 
-#: The static attitudes of :func:`joint_round_trip`'s eight power-ons (specific force in g
-#: along the body axes; the gyro's input axis is x): each axis up and down, and two tilts.
-JOINT_ATTITUDES = ((1.0, 0.0, 0.0), (-1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, -1.0, 0.0),
-                   (0.0, 0.0, 1.0), (0.0, 0.0, -1.0), (0.7071, 0.0, 0.7071),
-                   (0.0, 0.7071, 0.7071))
-
-
-def _twin_mean(values: dict, fs: float, f) -> float:
-    """The fitted device's mean rate at rest under the specific force ``f`` (g), rad/s: its
-    twin simulated by sim.fog without its random terms (noise and switch-on draws), so that
-    the bias and g terms are applied exactly as a scenario applies them."""
-    from fogbench.device.file import _device_from_values
-
-    p = _device_from_values(values, fs)
-    p = replace(p, switch_on_bias_sigma=0.0, g_sens_switch_on_sigma=0.0,
-                g2_sens_switch_on_sigma=0.0,
-                disabled=tuple(set(p.disabled) | {"arw", "bias_instability", "rrw", "gm_drift",
-                                                  "quantization", "rate_ramp"}))
-    n = 16
-    z = np.zeros((n, 3))
-    out = simulate_fog(p, fs, z, np.tile(np.asarray(f, float), (n, 1)),
-                       axes=(values.get("input_axis", "x"),), seed=0)
-    return float(np.mean(out.raw[:, 0]))
-
-
-def joint_round_trip(seeds: int = 20, preset: str = "paper004_gyro", fs: float = 10.0,
-                     hours: float = 2.0, level: float = 0.95,
-                     attitudes=JOINT_ATTITUDES) -> dict:
-    """A lab's round trip of one gyro's logs: per seed, eight static power-ons of the preset
-    (the whole error model: its switch-on bias and g-term spreads too) at the non-zero-g
-    ``attitudes`` (default :data:`JOINT_ATTITUDES`; the issue's lab: all eight x up) (one of ``hours``, seven an eighth of it; each log's
-    accelerometer says its attitude) and the lab's multi-position program of another power-on
-    (:func:`fogbench.device.multipos.lab_program`), fitted together into one device file
-    (:func:`fogbench.device.fit_device`, input axis x); then the twin of the file under each
-    static log's own conditions (its specific force): does it reproduce the log's mean within
-    the ``level`` interval of a new power-on's mean (the file's bias interval, its switch-on
-    spread and the fitted noise's Allan deviation at the log's length, in quadrature)? The
-    same with the bias the fit wrote before the g terms were taken out of it (the static
-    means' mean). Returns {"after": (logs within, seeds with every log within), "before":
-    ..., "logs": logs per seed, "bias_error_dph": [(before, after) per seed against the
-    preset's bias]}. No thermal run (its fit takes minutes per seed; its terms do not enter
-    the bias here)."""
-    from scipy.stats import norm
-
-    from fogbench.device import fit_device
-    from fogbench.device.file import DeviceFit
-    from fogbench.device.fit import StaticLog, _noise_model, _z
-    from fogbench.scenario.device_file import _fog
-    from fogbench.scenario.tables import _Table
-
-    z_lvl = float(norm.ppf(0.5 + level / 2))
-    n_long = int(hours * 3600 * fs)
-    res = {"after": [0, 0], "before": [0, 0], "logs": len(attitudes), "bias_error_dph": []}
-    for seed in range(seeds):
-        mlog, _, full_scale = _multipos(preset, fs, 1000 * seed + 999)
-        dev, *_ = _fog(_Table({"preset": preset}, "[fog]", "bench"), fs)
-        recs = []
-        for k, f in enumerate(attitudes):
-            n = n_long if k == 0 else n_long // 8
-            force = np.tile(np.asarray(f), (n, 1))
-            y = simulate_fog(dev, fs, np.zeros((n, 3)), force, axes=("x",),
-                             seed=1000 * seed + k).raw[:, 0]
-            recs.append(StaticLog(f"s{k}", y, fs, f=f, f_source="simulated", axis="x"))
-        fit = fit_device(recs, multipos=mlog, full_scale=full_scale, input_axis="x")
-        model = _noise_model(DeviceFit(), recs, None, 0.683, None)[0]
-        vals = fit.values()
-        e = fit.entry("bias_dph")
-        sd_b = (e.high - e.low) / 2 / _z(fit.ci)
-        so = float(vals.get("switch_on_bias_dph", 0.0))
-        before = float(np.mean([np.mean(r.rate) for r in recs])) / DPH
-        res["bias_error_dph"].append((before - dev.bias / DPH, e.value - dev.bias / DPH))
-        res["preset_bias_dph"] = dev.bias / DPH
-        for name, bias in (("after", e.value), ("before", before)):
-            ok = 0
-            for r in recs:
-                pred = _twin_mean({**vals, "bias_dph": bias}, fs, r.f) / DPH
-                noise = float(model.model_adev(np.array([r.rate.size / fs]))[0]) / DPH
-                half = z_lvl * math.sqrt(sd_b**2 + so**2 + noise**2)
-                ok += int(abs(float(np.mean(r.rate)) / DPH - pred) <= half)
-            res[name][0] += ok
-            res[name][1] += int(ok == len(recs))
-    return res
-
-
-def _print_joint(seeds: int) -> None:
-    import time
-
-    for label, att in (("the issue's lab: all eight x up", ((1.0, 0.0, 0.0),) * 8),
-                       ("each axis up and down, two tilts", JOINT_ATTITUDES)):
-        t0 = time.perf_counter()
-        r = joint_round_trip(seeds, attitudes=att)
-        m = len(att)
-        err = np.array(r["bias_error_dph"])
-        print(f"Joint device fit of paper004_gyro, {label} ({seeds} seeds, "
-              f"{time.perf_counter() - t0:.0f} s): {m} static power-ons (2 h and seven 15 min at "
-              "10 Hz) and the lab's multi-position program; the twin under each static log's "
-              "attitude against the log's mean (95 % interval of a new power-on's mean)")
-        for name, what in (("before", "bias = the static means' mean (g terms counted twice)"),
-                           ("after", "bias freed of the g terms at each log's attitude")):
-            logs, all_ok = r[name]
-            print(f"  {what:<55} logs within {logs:>4} of {m * seeds} "
-                  f"({logs / (m * seeds):.0%}), seeds with every log within {all_ok} of "
-                  f"{seeds} ({all_ok / seeds:.0%})")
-        print(f"  bias error against the preset's {r['preset_bias_dph']:.4g} deg/h, median "
-              "|error| (deg/h): before "
-              f"{np.median(np.abs(err[:, 0])):.3g}, after {np.median(np.abs(err[:, 1])):.3g}")
-
-
 #: The device ``device check`` is measured on: the tactical preset's white noise, flicker and
 #: rate random walk (sim/presets.toml), plus a Gauss-Markov drift (0.05 deg/h, 500 s), logged
 #: at rest for 16 h at 1 Hz (the long-tau terms a check must see; 1 Hz keeps 20 x 157 records
@@ -293,7 +184,9 @@ def check_power(seeds: int = 20, hours: float = 16.0, fs: float = 1.0, replicate
 
 
 def run(seeds: int = 20) -> None:
-    _print_joint(seeds)
+    from fogbench.bench.joint import print_joint
+
+    print_joint(seeds)
     print()
     res = check_power(seeds)
     print(f"device check's whole-curve test at the 5 % level: {seeds} logs of 16 h at 1 Hz "

@@ -268,18 +268,11 @@ def _read_fit_logs(opts: FitOptions):
     """(static logs, curve, thermal log, multi-position log) as :func:`fit_device` takes them,
     each log's summary said on stderr, and the multi-position log's gyro axis (None without
     one); its axis and the static logs' must be one."""
-    from dataclasses import replace
-
     statics = []
     for p in opts.static:
         s, log = _read_static(p, opts, acc=bool(opts.multipos))
         print(log.describe(), file=sys.stderr)
-        if s.f is None and opts.input_axis in ("up", "down"):
-            # the stated attitude: the input axis vertical, the specific force +-1 g along it
-            f = [0.0, 0.0, 0.0]
-            f["xyz".index(s.axis)] = 1.0 if opts.input_axis == "up" else -1.0
-            s = replace(s, f=tuple(f), f_source=f"stated: --input-axis {opts.input_axis}")
-        statics.append(s)
+        statics.append(_stated_attitude(s, s.axis, opts))
     if len({s.axis for s in statics}) > 1:
         raise LogError("--static: the logs' gyro columns are on different body axes (" + ", ".join(
             f"{s.name}: {s.column}" for s in statics) + "); a device file is one gyro: choose "
@@ -295,6 +288,8 @@ def _read_fit_logs(opts: FitOptions):
     if opts.thermal:
         thermal, tlog = _read_thermal(opts.thermal, opts)
         print(tlog.describe(), file=sys.stderr)
+        thermal = _stated_attitude(thermal, next(c for c in tlog.channels
+                                                 if c.startswith("gyro_"))[-1], opts)
     multipos, axis = None, None
     if opts.multipos:
         multipos, mlog = _read_multipos(opts.multipos, opts)
@@ -306,6 +301,18 @@ def _read_fit_logs(opts: FitOptions):
                            f"{statics[0].axis} ({statics[0].column}); a device file is one gyro: "
                            "choose it with --axis, or map the columns with --column")
     return statics, curve, thermal, multipos, axis
+
+
+def _stated_attitude(log, axis: str, opts: FitOptions):
+    """A static or thermal log without accelerometer columns at the attitude ``--input-axis up``
+    or ``down`` states: the specific force +-1 g along its gyro's body axis ``axis``."""
+    from dataclasses import replace
+
+    if log.f is not None or opts.input_axis not in ("up", "down"):
+        return log
+    f = [0.0, 0.0, 0.0]
+    f["xyz".index(axis)] = 1.0 if opts.input_axis == "up" else -1.0
+    return replace(log, f=tuple(f), f_source=f"stated: --input-axis {opts.input_axis}")
 
 
 def _options_line(opts: FitOptions) -> list[str]:

@@ -42,6 +42,9 @@ class StaticLog:
     f_source: str = ""
     #: the body axis of its gyro column ("x", "y", "z"; "" unknown)
     axis: str = ""
+    #: the temperature sensor's reading at each sample, deg C, or None (not logged)
+    temp: np.ndarray | None = None
+    temp_source: str = ""
 
 
 def earth_projection(latitude_deg: float, input_axis: str, heading_deg: float = 0.0) -> float:
@@ -91,10 +94,17 @@ def fit_device(static: list, curve=None, earth_rate: float | None = None,
         The body axis of the logs' gyro column, written as the device's mounting
         (``input_axis``): the g terms' components are along the logs' body axes.
 
-    With a multi-position log, the static logs' bias is what is left after the fitted g terms
-    at each static log's own specific force (:attr:`StaticLog.f`; a static log without one is
-    refused): the static mean at an attitude already holds them, and the simulation adds them
-    again at the scenario's specific force.
+    Each fit takes out what the others explain at each log's own attitude and temperature
+    (the simulation adds every term again at a scenario's conditions):
+
+    - with a multi-position log, the static logs' bias is what is left after the fitted g terms
+      at each static log's own specific force (:attr:`StaticLog.f`; a static log without one is
+      refused), and so is the thermal fit's constant (at :attr:`ThermalLog.f`);
+    - with a thermal log, the static logs' bias is what is left after the temperature terms at
+      each log's own temperature (:attr:`StaticLog.temp`), so that it refers to the terms'
+      reference temperature; static logs without a temperature column are stated as at their
+      own unlogged temperature (some with one and some without is refused);
+    - the Earth rate's projection (``earth_rate``) is taken out of both.
     """
     from fogcomp.allan import ONE_SIGMA_CI
 
@@ -112,14 +122,13 @@ def fit_device(static: list, curve=None, earth_rate: float | None = None,
                                  "logs' body axes (acc_x, acc_y, acc_z), the axes a scenario's "
                                  "specific force is in"))
     mp = _g_model(static, multipos, model, ci, full_scale) if multipos is not None else None
+    mp_name = multipos.name if multipos is not None else None
+    th = _thermal_fit(static, thermal, model, ci, mp) if thermal is not None else None
     if static:
-        _bias_entries(fit, static, pooled, earth_rate, ci, mp,
-                      multipos.name if multipos is not None else None)
+        _bias_entries(fit, static, pooled, earth_rate, ci, mp, mp_name,
+                      (thermal.name, th) if th is not None else None)
     if thermal is not None:
-        if model is None:
-            raise ValueError("--thermal: the fit weighs the thermal log by the noise model of "
-                             "a static log or an Allan curve; give --static or --curve too")
-        _thermal_entries(fit, thermal, ci, bias_given=bool(static), model=model)
+        _thermal_entries(fit, thermal, th, ci, bool(static), earth_rate, mp, mp_name)
     if multipos is not None:
         _multipos_entries(fit, multipos, ci, mp, full_scale)
     _undetermined(fit)
@@ -144,6 +153,48 @@ def _g_model(static: list, multipos, model, ci: float, full_scale):
                 "them again); give the log's acc_x/y/z columns, or --input-axis up or down "
                 "if its input axis was vertical")
     return fit_multipos(multipos, _thermal_noise(model, multipos.fs), ci, full_scale)
+
+
+def _thermal_fit(static: list, thermal, model, ci: float, mp) -> dict:
+    """The thermal log's fit (:func:`fogbench.device.thermal.fit_thermal`), weighted by the
+    noise ``model``; refuses what would leave the bias wrong without a word: static logs some
+    with a temperature column and some without, and, with a multi-position fit and no static
+    log (the bias then comes from the thermal fit's constant), a thermal log of unknown
+    attitude."""
+    from fogbench.device.thermal import fit_thermal
+
+    if model is None:
+        raise ValueError("--thermal: the fit weighs the thermal log by the noise model of "
+                         "a static log or an Allan curve; give --static or --curve too")
+    with_t = [s.name for s in static if s.temp is not None]
+    if with_t and len(with_t) < len(static):
+        raise ValueError(
+            "--thermal: static log(s) " + ", ".join(s.name for s in static if s.temp is None)
+            + " have no temperature column and " + ", ".join(with_t) + " have one; the bias "
+            "is taken to the temperature terms' reference from each log's temperature: give "
+            "a temp column in every static log (or in none: the bias is then stated at their "
+            "own unlogged temperature)")
+    if mp is not None and not static and thermal.f is None:
+        raise ValueError(
+            f"thermal log {thermal.name}: no accelerometer columns (acc_x, acc_y, acc_z) and "
+            "no stated attitude, so the multi-position fit's g terms cannot be taken out of "
+            "the bias its constant gives; give the log's acc_x/y/z columns, or --input-axis "
+            "up or down if its input axis was vertical")
+    return fit_thermal(thermal, _thermal_noise(model, thermal.fs), ci)
+
+
+def thermal_at(th: dict, temp: np.ndarray, ci: float) -> tuple[float, float]:
+    """(the temperature terms' mean over a soaked log at the sensor readings ``temp`` (deg C),
+    deg/h; its standard deviation): k1 dT + k2 dT^2 with dT the reading less the reference
+    (the rate terms left out: a static log is taken soaked, its coil at the sensor's
+    temperature), from the thermal fit's coefficients with their covariance, the coil's lag
+    profiled out (:func:`fogbench.device.thermal.combination`); its interval at ``ci`` over
+    that level's z gives the standard deviation."""
+    from fogbench.device.thermal import T_REF_C, combination
+
+    d = np.asarray(temp, float) - T_REF_C
+    v, lo, hi = combination(th, [0.0, float(np.mean(d)), float(np.mean(d * d)), 0.0, 0.0], ci)
+    return v / DPH, (hi - lo) / 2 / _z(ci) / DPH
 
 
 def _undetermined(fit: DeviceFit) -> None:
@@ -216,12 +267,13 @@ def _pooled_static_model(fit: DeviceFit, static: list, ci: float, min_tau):
 
 
 def _bias_entries(fit: DeviceFit, static: list, ref, earth_rate, ci: float, mp=None,
-                  mp_name: str | None = None) -> None:
-    """The bias (each log's mean rate less the Earth rate's projection and, with a
-    multi-position fit ``mp``, less its g terms at the log's specific force) and, with two or
-    more power-ons, its switch-on repeatability (their spread less what each mean's own noise
+                  mp_name: str | None = None, thermal=None) -> None:
+    """The bias (each log's mean rate less the Earth rate's projection, with a multi-position
+    fit ``mp`` less its g terms at the log's specific force, with a thermal fit ``thermal``
+    (name, result) less its temperature terms at the log's temperature) and, with two or more
+    power-ons, its switch-on repeatability (their spread less what each mean's own noise
     explains: ``ref``'s Allan deviation at the record's length)."""
-    from scipy.stats import chi2, t as student_t
+    from scipy.stats import t as student_t
 
     biases, sig = [], []
     for log in static:
@@ -234,29 +286,26 @@ def _bias_entries(fit: DeviceFit, static: list, ref, earth_rate, ci: float, mp=N
     corr = (f"less the Earth rate's projection on the input axis "
             f"({earth_rate / DPH:.6g} deg/h)") if earth_rate is not None else \
         "NOT corrected for the Earth rate (give --latitude-deg and --input-axis)"
-    g_sd = 0.0                      # the g terms' part of the bias's uncertainty, deg/h
+    sys_sd = 0.0           # the other fits' part of the bias's uncertainty, deg/h (common)
     if mp is not None:
-        from fogbench.device.multipos import g_terms_at
-
-        g, g_sd = g_terms_at(mp, np.array([log.f for log in static]))
+        g, g_sd, text = _g_correction(fit, static, mp, mp_name)
         biases = [b - gi for b, gi in zip(biases, g)]
-        g_sd /= DPH
-        corr += (f", less the g terms fitted to {mp_name} at each log's specific force ("
-                 + "; ".join(f"{log.name}: f = [{', '.join(f'{x:.3g}' for x in log.f)}] g from "
-                             f"{log.f_source}, {gi / DPH:.4g} deg/h"
-                             for log, gi in zip(static, g))
-                 + "; their uncertainty added to the interval)")
-        fit.notes.append(
-            f"bias_dph is corrected for the g terms: the static logs' mean rate held "
-            f"{float(np.mean(g)) / DPH:.4g} deg/h of the g terms fitted to {mp_name} at their "
-            f"attitudes (taken out, with +-{g_sd:.3g} deg/h (1 sigma) of the g terms' own "
-            "uncertainty added to its interval); the simulation adds the g terms at the "
-            "scenario's specific force")
+        sys_sd, corr = g_sd, corr + text
+    if thermal is not None and all(log.temp is not None for log in static):
+        t_corr, t_sd, text = _t_correction(fit, static, thermal, ci)
+        biases = [b - ti for b, ti in zip(biases, t_corr)]
+        sys_sd, corr = math.hypot(sys_sd, t_sd), corr + text
+    elif thermal is not None:
+        from fogbench.device.thermal import T_REF_C
+
+        fit.notes.append(f"bias_dph is the static logs' mean at their own (unlogged) "
+                         f"temperature, not taken to the temperature terms' reference "
+                         f"{T_REF_C:g} deg C (give the static logs a temp column)")
     k = len(biases)
     b = np.array(biases) / DPH
     s_in = np.array(sig) / DPH
     if k == 1:
-        h = _z(ci) * math.hypot(s_in[0], g_sd)
+        h = _z(ci) * math.hypot(s_in[0], sys_sd)
         fit.entries.append(Entry("bias_dph", float(b[0]), float(b[0] - h), float(b[0] + h),
                                  f"mean rate of {static[0].name} {corr}; interval from the "
                                  "noise model's Allan deviation at the record's length"))
@@ -266,11 +315,61 @@ def _bias_entries(fit: DeviceFit, static: list, ref, earth_rate, ci: float, mp=N
         return
     mean, sd = float(b.mean()), float(b.std(ddof=1))
     h = float(student_t.ppf(0.5 + ci / 2, k - 1)) * sd / math.sqrt(k)
-    h = math.hypot(h, _z(ci) * g_sd)    # the g terms' error is common to every log
+    h = math.hypot(h, _z(ci) * sys_sd)    # the other fits' error is common to every log
     fit.entries.append(Entry("bias_dph", mean, mean - h, mean + h,
                              f"mean of the {k} logs' mean rates {corr}; t-interval over "
                              "the power-ons"))
-    # the spread of the k means, less the part their own noise explains
+    _switch_on_entry(fit, sd, s_in, k, ci)
+
+
+def _g_correction(fit: DeviceFit, static: list, mp, mp_name):
+    """(the g terms at each static log's specific force, rad/s; their common standard
+    deviation, deg/h; the bias source's words) and the note that says it."""
+    from fogbench.device.multipos import g_terms_at
+
+    g, g_sd = g_terms_at(mp, np.array([log.f for log in static]))
+    g_sd /= DPH
+    text = (f", less the g terms fitted to {mp_name} at each log's specific force ("
+            + "; ".join(f"{log.name}: f = [{', '.join(f'{x:.3g}' for x in log.f)}] g from "
+                        f"{log.f_source}, {gi / DPH:.4g} deg/h"
+                        for log, gi in zip(static, g))
+            + "; their uncertainty added to the interval)")
+    fit.notes.append(
+        f"bias_dph is corrected for the g terms: the static logs' mean rate held "
+        f"{float(np.mean(g)) / DPH:.4g} deg/h of the g terms fitted to {mp_name} at their "
+        f"attitudes (taken out, with +-{g_sd:.3g} deg/h (1 sigma) of the g terms' own "
+        "uncertainty added to its interval); the simulation adds the g terms at the "
+        "scenario's specific force")
+    return g, g_sd, text
+
+
+def _t_correction(fit: DeviceFit, static: list, thermal, ci: float):
+    """(the temperature terms at each static log's temperature, rad/s; their common standard
+    deviation, deg/h; the bias source's words) and the note that says it."""
+    from fogbench.device.thermal import T_REF_C
+
+    name, th = thermal
+    parts = [thermal_at(th, log.temp, ci) for log in static]
+    t_corr = [v * DPH for v, _ in parts]
+    t_sd = float(np.sqrt(np.mean([sd**2 for _, sd in parts])))
+    text = (f", less the temperature terms fitted to {name} at each log's mean temperature ("
+            + "; ".join(f"{log.name}: {float(np.mean(log.temp)):.3g} deg C from "
+                        f"{log.temp_source or 'its temp column'}, {v:.4g} deg/h"
+                        for log, (v, _) in zip(static, parts))
+            + f"), so that it refers to {T_REF_C:g} deg C")
+    fit.notes.append(
+        f"bias_dph refers to {T_REF_C:g} deg C: the temperature terms fitted to {name} "
+        f"explained {float(np.mean([v for v, _ in parts])):.4g} deg/h of the static logs' "
+        f"mean rate at their temperatures (taken out, with +-{t_sd:.3g} deg/h (1 sigma) of "
+        "their uncertainty added to its interval)")
+    return t_corr, t_sd, text
+
+
+def _switch_on_entry(fit: DeviceFit, sd: float, s_in: np.ndarray, k: int, ci: float) -> None:
+    """The switch-on repeatability: the spread ``sd`` of the ``k`` power-ons' biases less what
+    their own noise ``s_in`` explains (deg/h), with its chi-square interval."""
+    from scipy.stats import chi2
+
     excess = max(sd**2 - float(np.mean(s_in**2)), 0.0)
     lo_q, hi_q = chi2.ppf(0.5 + ci / 2, k - 1), chi2.ppf(0.5 - ci / 2, k - 1)
     lo = math.sqrt(max((k - 1) * sd**2 / lo_q - float(np.mean(s_in**2)), 0.0))
@@ -306,37 +405,32 @@ def _thermal_noise(model, fs: float):
     return FogParams(**kw)
 
 
-def _thermal_entries(fit: DeviceFit, log, ci: float, bias_given: bool, model) -> None:
-    from fogbench.device.thermal import KEYS, RATE_WINDOW_S, T_REF_C, fit_thermal
+def _thermal_entries(fit: DeviceFit, log, th: dict, ci: float, bias_given: bool,
+                     earth_rate=None, mp=None, mp_name: str | None = None) -> None:
+    from fogbench.device.thermal import KEYS, RATE_WINDOW_S, T_REF_C
 
     col = f", column {log.column}" if log.column else ""
     fit.inputs.append(f"thermal log {log.name} ({log.rate.size} samples at {log.fs:g} Hz"
                       f"{col}; {np.min(log.temp):.3g} to {np.max(log.temp):.3g} deg C)")
-    noise = _thermal_noise(model, log.fs)
-    th = fit_thermal(log, noise, ci)
     tau, lo, hi, bounded = th["lag"]
     lo95, hi95, bounded95 = th["lag95"]
     how = (f"generalised least squares on {th['block_s']:g} s means of {log.name} (bias + T + T^2 + "
            "dT/dt + T dT/dt of the coil), weighted by the fitted noise model (terms the "
-           "record only bounds at their 95 % bounds); interval the union over the coil lags "
-           f"the residual allows, both at (1 + {ci:.3g}) / 2 so that they hold together at "
-           f"{ci:.3g} at least")
+           "record only bounds at their 95 % bounds); profile-likelihood interval with the "
+           "coil's lag profiled out")
     fit.entries.append(Entry("temp_ref_c", T_REF_C, None, None,
                              "chosen: the temperature terms' reference"))
     for key, _ in KEYS:
         v, a, b = th[key]
         fit.entries.append(Entry(key, v, a, b, how))
+    v, a, b, what = _thermal_constant(log, th, ci, earth_rate, mp, mp_name)
     if bias_given:
-        v, a, b = th["bias_at_ref_dph"]
-        fit.notes.append(f"bias_dph is the static logs' mean at their own (unlogged) "
-                         f"temperature; the temperature terms refer to {T_REF_C:g} deg C, where "
-                         f"the thermal fit's constant is {v:.4g} [{a:.4g}, {b:.4g}] deg/h (its "
-                         "rate, the Earth rate included)")
+        fit.notes.append(f"the thermal fit's constant at {T_REF_C:g} deg C ({what}): {v:.4g} "
+                         f"[{a:.4g}, {b:.4g}] deg/h, to compare with bias_dph (another "
+                         "power-on: they differ by the switch-on bias)")
     else:
-        v, a, b = th["bias_at_ref_dph"]
         fit.entries.append(Entry("bias_dph", v, a, b, f"the thermal fit's constant at "
-                                 f"{T_REF_C:g} deg C ({log.name}; its rate, Earth rate "
-                                 "included, is taken as the reference)"))
+                                 f"{T_REF_C:g} deg C ({log.name}; {what})"))
     if lo95 == 0.0 and hi95 <= RATE_WINDOW_S:
         fit.entries.append(Entry("temp_sensor_location", "coil", None, None,
                                  f"the residual of {log.name} rejects (at 95 %) every lag "
@@ -362,6 +456,36 @@ def _thermal_entries(fit: DeviceFit, log, ci: float, bias_given: bool, model) ->
     fit.notes.append(f"thermal fit of {log.name}: generalised residual chi-square per degree "
                      f"of freedom {th['chi2_per_dof']:.3g} (about 1 when the noise model and "
                      "the temperature model explain the record)")
+
+
+def _thermal_constant(log, th: dict, ci: float, earth_rate, mp, mp_name):
+    """(value, low, high, what it is) of the thermal fit's constant, deg/h, less the Earth rate's
+    projection (when given) and the g terms at the thermal log's attitude (with a
+    multi-position fit; their uncertainty widens the interval)."""
+    v, a, b = th["bias_at_ref_dph"]
+    what = []
+    if earth_rate is not None:
+        e = earth_rate / DPH
+        v, a, b = v - e, a - e, b - e
+        what.append(f"less the Earth rate's projection ({e:.6g} deg/h, the attitude "
+                    "--input-axis states)")
+    else:
+        what.append("the Earth rate included: NOT corrected (give --latitude-deg and "
+                    "--input-axis)")
+    if mp is not None and log.f is not None:
+        from fogbench.device.multipos import g_terms_at
+
+        g, g_sd = g_terms_at(mp, np.array([log.f]))
+        g, g_sd = float(g[0]) / DPH, g_sd / DPH
+        h = math.hypot((b - a) / 2, _z(ci) * g_sd)
+        v, a, b = v - g, a - g + (b - a) / 2 - h, b - g - (b - a) / 2 + h
+        what.append(f"less the g terms fitted to {mp_name} at its specific force "
+                    f"[{', '.join(f'{x:.3g}' for x in log.f)}] g from {log.f_source} "
+                    f"({g:.4g} deg/h, their uncertainty added to the interval)")
+    elif mp is not None:
+        what.append("the g terms at its unknown attitude included: NOT corrected (give it "
+                    "acc_x/y/z columns)")
+    return v, a, b, "; ".join(what)
 
 
 def _multipos_entries(fit: DeviceFit, log, ci: float, res: dict, full_scale) -> None:

@@ -26,12 +26,11 @@ def _channel(log, axis: str | None, path) -> str:
 
 
 def _read_static(path, opts, acc: bool = False) -> tuple[StaticLog, object]:
-    """One gyro channel of a static log; with ``acc``, its accelerometer columns too where it
-    has all three (their mean specific force in g: the log's attitude)."""
-    from fogcomp.units import G0
-
+    """One gyro channel of a static log and its temperature column where it has one; with
+    ``acc``, its accelerometer columns too where it has all three (their mean specific force
+    in g: the log's attitude)."""
     chans = [f"gyro_{opts.axis}"] if opts.axis else ["gyro_*"]
-    log = opts.read(path, chans + (["acc_*?"] if acc else []))
+    log = opts.read(path, chans + (["acc_*?"] if acc else []) + ["temp?"])
     ch = _channel(log, opts.axis, path)
     if log.units[ch] == "au":
         raise LogError(f"{path}: column {log.sources[ch]!r} is in raw counts (au); a device "
@@ -40,30 +39,41 @@ def _read_static(path, opts, acc: bool = False) -> tuple[StaticLog, object]:
     if np.ptp(v) == 0:
         raise LogError(f"{path}: column {log.sources[ch]!r} is constant: a stuck channel has no "
                        "noise to fit")
-    f, src = None, ""
-    accs = [f"acc_{a}" for a in "xyz"]
-    if acc and all(c in log.channels for c in accs):
-        for c in accs:
-            if log.units[c] == "au":
-                raise LogError(f"{path}: column {log.sources[c]!r} is in raw counts (au); the "
-                               "static log's attitude needs physical units")
-        f = tuple(float(np.mean(log.channels[c])) / G0 for c in accs)
-        src = "its " + ", ".join(log.sources[c] for c in accs) + " columns"
+    f, src = _attitude(path, log) if acc else (None, "")
+    temp = log.channels.get("temp")
     return StaticLog(str(path), v, log.fs, tuple(log.segments), log.sources[ch], f=f,
-                     f_source=src, axis=ch.removeprefix("gyro_")), log
+                     f_source=src, axis=ch.removeprefix("gyro_"), temp=temp,
+                     temp_source=log.sources.get("temp", "")), log
+
+
+def _attitude(path, log) -> tuple[tuple | None, str]:
+    """(the log's mean specific force in g along its body axes, where it comes from) from its
+    acc_x/y/z columns, or (None, "") without all three."""
+    from fogcomp.units import G0
+
+    accs = [f"acc_{a}" for a in "xyz"]
+    if not all(c in log.channels for c in accs):
+        return None, ""
+    for c in accs:
+        if log.units[c] == "au":
+            raise LogError(f"{path}: column {log.sources[c]!r} is in raw counts (au); the "
+                           "log's attitude needs physical units")
+    return (tuple(float(np.mean(log.channels[c])) / G0 for c in accs),
+            "its " + ", ".join(log.sources[c] for c in accs) + " columns")
 
 
 def _read_thermal(path, opts):
     from fogbench.device.thermal import ThermalLog
 
-    chans = [f"gyro_{opts.axis}" if opts.axis else "gyro_*", "temp"]
+    chans = [f"gyro_{opts.axis}" if opts.axis else "gyro_*", "temp", "acc_*?"]
     log = opts.read(path, chans, gaps="continuous")
     ch = _channel(log, opts.axis, path)
     if log.units[ch] == "au":
         raise LogError(f"{path}: column {log.sources[ch]!r} is in raw counts (au); a device "
                        "file needs a rate unit (dps, rps, dph)")
+    f, src = _attitude(path, log)
     return ThermalLog(str(path), log.channels[ch], log.channels["temp"], log.fs,
-                      log.sources[ch]), log
+                      log.sources[ch], f=f, f_source=src), log
 
 
 def _check_reference_flag(reference):

@@ -369,7 +369,7 @@ def _columns(path, frame, mapped: dict, from_model: dict,
 
 def _wanted(path, frame, channels, found: dict) -> list[str]:
     """The channels a command asks for (``gyro_*``: every gyro, at least one; ``acc_*?``:
-    every accelerometer there is), each present."""
+    every accelerometer there is; ``temp?``: a channel where there is one), each present."""
     wanted = list(channels) if channels is not None else [c for c in found if c != "time"]
     if "gyro_*" in wanted:
         gyros = sorted(c for c in found if c.startswith("gyro_"))
@@ -383,6 +383,9 @@ def _wanted(path, frame, channels, found: dict) -> list[str]:
     if "acc_*?" in wanted:     # every accelerometer channel there is, perhaps none
         i = wanted.index("acc_*?")
         wanted[i:i + 1] = sorted(c for c in found if c.startswith("acc_") and c not in wanted)
+    # ``temp?``: the channel where the log has it (an optional column)
+    wanted = [c.removesuffix("?") for c in wanted
+              if not c.endswith("?") or c.removesuffix("?") in found]
     for ch in wanted:
         if ch not in found:
             raise LogError(f"{path}: missing column for {ch} (e.g. {ch}_"

@@ -157,10 +157,10 @@ CHECK_TWINS = (("the device itself", {}), ("no flicker", {"bias_instability_dph"
 
 
 def check_power(seeds: int = 20, hours: float = 16.0, fs: float = 1.0, replicates: int = 39,
-                level: float = 0.05) -> dict:
+                level: float = 0.05, twins=None) -> dict:
     """``device check``'s whole-curve test on ``seeds`` logs of :data:`CHECK_DEVICE`, against
-    each twin of :data:`CHECK_TWINS`: in how many seeds it finds the log and the twin
-    disagree (p <= ``level``). Against the device itself that is the false-alarm rate (exactly
+    each twin of :data:`CHECK_TWINS` (or those named in ``twins``): in how many seeds it finds
+    the log and the twin disagree (p <= ``level``). Against the device itself that is the false-alarm rate (exactly
     the level by construction, measured here); against a twin missing a term, the power."""
     from fogbench.device.twin import curve_test, twin_curves
     from fogbench.device.file import _device_from_values
@@ -172,8 +172,9 @@ def check_power(seeds: int = 20, hours: float = 16.0, fs: float = 1.0, replicate
     m = 2 ** np.arange(int(np.log2((n - 1) // 2)) + 1)
     taus = m / fs
     device = _device_from_values(base, fs)
-    models = {name: _device_from_values({**base, **change}, fs) for name, change in CHECK_TWINS}
-    out = {name: 0 for name, _ in CHECK_TWINS}
+    models = {name: _device_from_values({**base, **change}, fs) for name, change in CHECK_TWINS
+              if twins is None or name in twins}
+    out = {name: 0 for name in models}
     for seed in range(seeds):       # a new log and new twins each time: independent trials
         log = twin_curves(device, fs, [(0, n)], taus, 1, seed=seed)[0]
         for j, (name, model) in enumerate(models.items()):
@@ -181,6 +182,15 @@ def check_power(seeds: int = 20, hours: float = 16.0, fs: float = 1.0, replicate
                                 seed=10**7 + 10**5 * (len(models) * seed + j))
             out[name] += int(curve_test(log, twins)["p_value"] <= level)
     return out
+
+
+def _binomial_interval(k: int, n: int, level: float = 0.95) -> tuple[float, float]:
+    """Clopper-Pearson interval of a proportion k of n."""
+    from scipy.stats import beta
+
+    a = (1 - level) / 2
+    return (0.0 if k == 0 else float(beta.ppf(a, k, n - k + 1)),
+            1.0 if k == n else float(beta.ppf(1 - a, k + 1, n - k)))
 
 
 def run(seeds: int = 20) -> None:
@@ -195,6 +205,12 @@ def run(seeds: int = 20) -> None:
     for name, k in res.items():
         what = "false alarms" if name == "the device itself" else "power"
         print(f"  twin: {name:<22} {k:>3} of {seeds}  ({what} {k / seeds:.0%})")
+    # 20 logs measure a false-alarm rate to about +-5 points; 400 to about +-1
+    many = 20 * seeds
+    k = check_power(many, twins=("the device itself",))["the device itself"]
+    lo, hi = _binomial_interval(k, many)
+    print(f"  twin: the device itself, {many} more logs: false alarms {k} of {many} "
+          f"({k / many:.1%}, 95 % interval {lo:.1%} to {hi:.1%}; nominal 5 %)")
     print()
     print(f"Device-file round trip: {seeds} seeds per preset, 8 static power-ons each (one "
           "long log, seven an eighth of it) and a multi-position/centrifuge/rate-table "

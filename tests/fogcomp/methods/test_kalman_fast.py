@@ -72,3 +72,35 @@ def test_the_fast_path_on_a_million_samples(q, smoother):
     got, pgot = local_level_filter(z, q, r, z[0], r, smoother=smoother)
     assert np.max(np.abs(got - ref)) <= TOL * np.std(z)
     assert np.max(np.abs(pgot - pref) / pref) <= 1e-9
+
+
+def _q_for_gain(k: float, r: float) -> float:
+    """The process variance whose steady gain is k (from K = P-/(P- + r), P-^2 = q (P- + r))."""
+    pp = k * r / (1.0 - k)
+    return pp * pp / (pp + r)
+
+
+@pytest.mark.parametrize("gain", [1e-1, 1e-2, 1e-3])
+@pytest.mark.parametrize("smoother", [False, True])
+def test_the_fast_path_is_filterpy_at_every_gain_transient_included(gain, smoother):
+    """Issue 43: the transient runs as scalars, not through filterpy's 1 x 1 matrices; at steady
+    gains 0.1, 0.01 and 0.001 (transients of about 140, 1,400 and 14,000 samples from a diffuse
+    prior) the estimates are filterpy's to 1e-12 relative, on a record longer than the
+    transient, and the transient alone is filterpy's to rounding."""
+    from fogcomp.methods.kalman import _filter_scalar, _transient_length, steady_state_gain
+
+    r = 1.0
+    q = _q_for_gain(gain, r)
+    assert steady_state_gain(q, r) == pytest.approx(gain, rel=1e-12)
+    n = 20_000
+    z = _record(n, q, r, seed=7, offset=0.4)
+    assert 0 < _transient_length(q, r, 1e6, n) < n
+    ref, pref = local_level_filter(z, q, r, 0.0, 1e6, smoother=smoother, engine="filterpy")
+    got, pgot = local_level_filter(z, q, r, 0.0, 1e6, smoother=smoother)
+    assert np.max(np.abs(got - ref)) <= 1e-12 * np.max(np.abs(ref))
+    assert np.max(np.abs(pgot - pref) / pref) <= 1e-11
+    if not smoother:
+        m = 2_000
+        x, p = _filter_scalar(z[:m], q, r, 0.0, 1e6)
+        assert np.max(np.abs(x - ref[:m])) <= 1e-14 * np.max(np.abs(ref[:m]))
+        assert np.max(np.abs(p - pref[:m]) / pref[:m]) <= 1e-14

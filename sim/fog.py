@@ -231,11 +231,15 @@ def simulate_fog(params: FogParams, fs: float, truth_rate: np.ndarray, specific_
              "g_sens": np.array(np.broadcast_to(np.asarray(p.g_sens, dtype=float), (na, 3))),
              "g2_sens": np.array(np.broadcast_to(np.asarray(p.g2_sens, dtype=float), (na, 6)))}
     per_axis: dict[str, list] = {}  # term -> [array (n,) or None per axis]
+    # the rate and force components as contiguous rows: elementwise work on a column of an
+    # (n, 3) array strides through memory, 2-4 times slower (the same operations, the same sums)
+    rows = np.ascontiguousarray(truth_rate.T), np.ascontiguousarray(f.T)
     for j, name in enumerate(axes):
         ai = AXES[name]
         axis_terms = (_noise_terms(p, fs, n, seed, ai, enabled)
-                      + _bias_and_scale_terms(p, fs, n, seed, ai, j, truth_rate, dT, draws)
-                      + _g_terms(p, seed, ai, j, f, draws)
+                      + _bias_and_scale_terms(p, fs, n, seed, ai, j, truth_rate, dT, draws,
+                                              rows[0][ai])
+                      + _g_terms(p, seed, ai, j, f, draws, rows[1])
                       + _temperature_terms(p, dT, Tdot))
         for term, value in axis_terms:
             if term in enabled:
@@ -273,12 +277,11 @@ def _noise_terms(p: FogParams, fs: float, n: int, seed: int, ai: int, enabled) -
 
 
 def _bias_and_scale_terms(p: FogParams, fs: float, n: int, seed: int, ai: int, j: int,
-                          truth_rate: np.ndarray, dT, draws: dict) -> list:
+                          truth_rate: np.ndarray, dT, draws: dict, w: np.ndarray) -> list:
     """(term, rate error (n,)) of the biases (constant, switch-on: its draw is kept in
     ``draws``, ramp) and of the rate's own errors (scale factor, misalignment) of axis ``ai``,
-    the ``j``-th output."""
+    the ``j``-th output (``w``: its true rate, contiguous)."""
     out = []
-    w = truth_rate[:, ai]
     if p.bias:
         out.append(("constant_bias", np.broadcast_to(p.bias, (n,))))
     if p.switch_on_bias_sigma:
@@ -289,7 +292,10 @@ def _bias_and_scale_terms(p: FogParams, fs: float, n: int, seed: int, ai: int, j
         out.append(("rate_ramp", p.rate_ramp * (np.arange(n) + 0.5) * (1.0 / fs)))
     if p.scale_factor or p.sf_nonlinearity or (p.sf_temp_coeff and dT is not None):
         k = p.scale_factor if dT is None else p.scale_factor + p.sf_temp_coeff * dT
-        out.append(("scale_factor", k * w + p.sf_nonlinearity * w * np.abs(w) / p.full_scale))
+        e = k * w
+        if p.sf_nonlinearity:
+            e = e + p.sf_nonlinearity * w * np.abs(w) / p.full_scale
+        out.append(("scale_factor", e))
     M = np.asarray(p.misalignment, dtype=float)
     if np.any(M[ai]):
         others = [b for b in range(3) if b != ai]
@@ -297,9 +303,11 @@ def _bias_and_scale_terms(p: FogParams, fs: float, n: int, seed: int, ai: int, j
     return out
 
 
-def _g_terms(p: FogParams, seed: int, ai: int, j: int, f: np.ndarray, draws: dict) -> list:
+def _g_terms(p: FogParams, seed: int, ai: int, j: int, f: np.ndarray, draws: dict,
+             f_rows: np.ndarray) -> list:
     """(term, rate error (n,)) of the g and g^2 sensitivities of axis ``ai`` (the ``j``-th
-    output), their switch-on draws added to ``draws`` first."""
+    output), their switch-on draws added to ``draws`` first (``f_rows``: f's components as
+    contiguous rows)."""
     out = []
     if p.g_sens_switch_on_sigma:
         draws["g_sens"][j] += (_stream(seed, "g_switch_on", ai).standard_normal(3)
@@ -311,7 +319,7 @@ def _g_terms(p: FogParams, seed: int, ai: int, j: int, f: np.ndarray, draws: dic
         out.append(("g_sensitivity", f @ draws["g_sens"][j]))
     if np.any(draws["g2_sens"][j]):
         d = draws["g2_sens"][j]
-        fx, fy, fz = f[:, 0], f[:, 1], f[:, 2]
+        fx, fy, fz = f_rows
         out.append(("g2_sensitivity", (d[0] * fx + d[3] * fy + d[5] * fz) * fx
                     + (d[1] * fy + d[4] * fz) * fy + d[2] * fz * fz))
     return out

@@ -15,8 +15,15 @@ from fogbench.bench.scenarios import bench_replicates, bench_scenario_replicates
 __all__ = ["main"]
 
 
-def main(seconds: float = 600.0, repeats: int = 5, noise_seeds: int = 20) -> int:
-    """Every benchmark in turn (``fogbench bench``); returns 0."""
+def main(seconds: float = 600.0, repeats: int = 5, noise_seeds: int = 20,
+         quick: bool = False) -> int:
+    """Every benchmark in turn (``fogbench bench``), or with ``quick`` every speed ratio on
+    short records (:func:`quick`); returns 0."""
+    if quick:
+        return _quick()
+    print("fogbench bench: the whole bench takes an hour or more on two cores (the noise "
+          "identifier's and the device files' tables over 20 seeds are most of it); "
+          "`fogbench bench --quick` prints every speed ratio in a few minutes", flush=True)
     bench_rig(seconds, repeats)
     from fogbench.bench.allan import bench_allan, bench_compensate_write
 
@@ -40,4 +47,31 @@ def main(seconds: float = 600.0, repeats: int = 5, noise_seeds: int = 20) -> int
 
     print()
     bench_device(seeds=noise_seeds)
+    return 0
+
+
+def _quick() -> int:
+    """Every speed ratio of the bench on short records, medians of 3: the rig against bare
+    rollout, the error model, Allan against allantools, the CSV writer against pandas, the
+    Kalman fast path against filterpy at a high and a low gain, each method's fit (2,500
+    samples) and compensation, and one replicate of each bundled scenario (its first run:
+    the table's motion and replicate 0). No accuracy tables."""
+    import time
+
+    from fogbench.bench.allan import bench_allan, bench_compensate_write
+    from fogbench.bench.methods import main as bench_methods
+
+    t0 = time.perf_counter()
+    print("fogbench bench --quick: speed ratios on short records (the accuracy tables: "
+          "`fogbench bench`)", flush=True)
+    bench_rig(seconds=30.0, repeats=3)
+    print()
+    bench_allan(n=10**6, repeats=3)
+    print()
+    bench_compensate_write(n=5 * 10**4, repeats=3)
+    print()
+    bench_methods(repeats=3, quick=True)
+    print()
+    bench_scenario_replicates(first_only=True)
+    print(f"\nfogbench bench --quick took {time.perf_counter() - t0:.0f} s")
     return 0

@@ -13,12 +13,13 @@ def _warm_up(i: int) -> int:
     return i
 
 
-def bench_scenario_replicates(root=None) -> list[dict]:
+def bench_scenario_replicates(root=None, first_only: bool = False) -> list[dict]:
     """Every bundled scenario: its first run (the table's motion simulated by MuJoCo, then
     replicate 0 in full, as ``fogbench run`` and the suite do) and one replicate after it (the
     table's motion reused, what each further replicate costs a worker), in one process, each
     once; the replicate as a ratio to the first run. ``make run`` costs about the first runs
-    plus (R - 1) replicates per scenario, shared between the processes."""
+    plus (R - 1) replicates per scenario, shared between the processes. ``first_only``: the
+    first run alone (the quick bench)."""
     import tempfile
     from pathlib import Path
 
@@ -27,10 +28,12 @@ def bench_scenario_replicates(root=None) -> list[dict]:
 
     root = Path(root) if root else Path(__file__).resolve().parents[2] / "scenarios"
     paths = sorted(root.glob("*.toml"))
-    print(f"Scenarios: the first run (table + replicate 0) and one replicate after it, one "
-          f"process, wall time, {len(paths)} scenario(s) of {root}")
-    print(f"  {'scenario':<26}{'table s':>9}{'replicate 0 s':>15}{'replicate 1 s':>15}"
-          f"{'replicate / first run':>23}{'replicates':>12}", flush=True)
+    then = "" if first_only else " and one replicate after it"
+    print(f"Scenarios: the first run (table + replicate 0){then}, one process, wall time, "
+          f"{len(paths)} scenario(s) of {root}")
+    print(f"  {'scenario':<26}{'table s':>9}{'replicate 0 s':>15}"
+          + ("" if first_only else f"{'replicate 1 s':>15}{'replicate / first run':>23}")
+          + f"{'replicates':>12}", flush=True)
     rows = []
     for path in paths:
         with tempfile.TemporaryDirectory() as d:
@@ -40,19 +43,23 @@ def bench_scenario_replicates(root=None) -> list[dict]:
             mc.run_first()
             first_s = time.perf_counter() - t0
             t0 = time.perf_counter()
-            with SerialExecutor() as ex:
-                mc.submit(ex)
-                mc.wait()
-            rep_s = time.perf_counter() - t0
+            if not first_only:
+                with SerialExecutor() as ex:
+                    mc.submit(ex)
+                    mc.wait()
+            rep_s = time.perf_counter() - t0 if not first_only else float("nan")
             failed = bool(mc.failures)
             mc.work.remove()
         row = {"scenario": mc.sc.name, "table_s": mc.truth_s, "first_s": first_s,
                "replicate_s": rep_s, "ratio": rep_s / (mc.truth_s + first_s),
                "replicates": mc.plan.replicates, "failed": failed}
         rows.append(row)
-        print(f"  {row['scenario']:<26}{row['table_s']:>9.1f}{first_s:>15.1f}{rep_s:>15.1f}"
-              f"{row['ratio']:>23.2f}{row['replicates']:>12}"
+        print(f"  {row['scenario']:<26}{row['table_s']:>9.1f}{first_s:>15.1f}"
+              + ("" if first_only else f"{rep_s:>15.1f}{row['ratio']:>23.2f}")
+              + f"{row['replicates']:>12}"
               + ("  (the replicate failed)" if failed else ""), flush=True)
+    if first_only:
+        return rows
     total = sum(r["table_s"] + r["first_s"] + (r["replicates"] - 1) * r["replicate_s"]
                 for r in rows)
     print(f"  one process would need about {total / 60:.1f} min for every scenario's replicates "

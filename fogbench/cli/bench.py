@@ -13,10 +13,14 @@ def add_parser(sub) -> None:
                    help="repeats; medians are quoted (default 5)")
     b.add_argument("--noise-seeds", type=number(int, 1, hi=1000), default=20,
                    help="records per case of the noise identifier's table (default 20)")
+    b.add_argument("--quick", action="store_true",
+                   help="every speed ratio on short records, no accuracy tables (a few "
+                        "minutes; the whole bench takes an hour or more)")
     b.set_defaults(func=_bench)
 
 
 def _bench(args) -> int:
     from fogbench.bench import main
 
-    return main(seconds=args.seconds, repeats=args.repeats, noise_seeds=args.noise_seeds)
+    return main(seconds=args.seconds, repeats=args.repeats, noise_seeds=args.noise_seeds,
+                quick=args.quick)

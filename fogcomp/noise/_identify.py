@@ -70,7 +70,7 @@ def identify_noise_model(taus, avar, fs: float, n, *, model=None, ci: float | No
     t, v, m, segs, fs = _checked_curve(taus, avar, fs, n)
     stated = None if model is None else _checked_model(model, t.size)
     pb = _Problem(t, v, m, segs, fs, model_error)
-    big, fit, weak, log = _fit_and_select(pb, stated, alpha, max_gm, model_error)
+    big, fit, weak, other, log = _fit_and_select(pb, stated, alpha, max_gm, model_error)
     cov_v = pb.covariance(*big.coefficients())
     # the parameter covariance is scaled by J / dof when the curve departs from the model
     dof = t.size - fit.spec.n_params
@@ -159,7 +159,7 @@ def _fit_and_select(pb: _Problem, stated, alpha: float, max_gm: int, model_error
     from scipy.stats import chi2
 
     log: list[str] = []
-    big, fit, weak, steps = _weights_and_fit(pb, model_error, stated, alpha, max_gm)
+    big, fit, weak, other, steps = _weights_and_fit(pb, model_error, stated, alpha, max_gm)
     dof = pb.taus.size - fit.spec.n_params
     if dof > 0 and chi2.sf(fit.J, dof) < 0.01:
         # The curve departs from every model of these terms more than its statistical error
@@ -171,9 +171,9 @@ def _fit_and_select(pb: _Problem, stated, alpha: float, max_gm: int, model_error
                    f"(J = {fit.J:.3g} on {dof} degrees of freedom): a model error of "
                    f"{100 * eps:.2g} % per point brings J to its degrees of freedom; selected "
                    "again with it")
-        big, fit, weak, steps = _weights_and_fit(pb, eps, stated, alpha, max_gm)
+        big, fit, weak, other, steps = _weights_and_fit(pb, eps, stated, alpha, max_gm)
     log.extend(steps)
-    return big, fit, weak, log
+    return big, fit, weak, other, log
 
 
 def _weights_and_fit(pb: _Problem, eps: float, stated, alpha: float, max_gm: int):
@@ -192,10 +192,10 @@ def _weights_and_fit(pb: _Problem, eps: float, stated, alpha: float, max_gm: int
         pb.set_weights(*big.coefficients())
     steps: list[str] = [f"weights (Omega) from the largest model, {big.spec.label()}"]
     if stated is not None:
-        fit, weak = _stated(pb, *stated), {}
+        fit, weak, other = _stated(pb, *stated), {}, None
     else:
-        fit, weak = _select(pb, alpha, max_gm, steps)
-    return big, pb.refine(fit.spec), weak, steps
+        fit, weak, other = _select(pb, alpha, max_gm, steps)
+    return big, pb.refine(fit.spec), weak, other, steps
 
 
 def _misfit_model_error(pb: _Problem, big: _Fit, spec: _Spec, dof: int,

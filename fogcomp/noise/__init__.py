@@ -82,10 +82,11 @@ from ._processes import (
     avar_term,
     parse_model,
 )
-from ._result import DATASHEET, ModelTerm, NoiseModel
+from ._result import DATASHEET, DATASHEET_VERSION, ModelTerm, NoiseModel
 
 __all__ = [
     "DATASHEET",
+    "DATASHEET_VERSION",
     "LINEAR_TERMS",
     "TERM_NAMES",
     "ModelTerm",

@@ -18,7 +18,7 @@ from ._terms import _model_terms, _Report
 
 def identify_noise_model(taus, avar, fs: float, n, *, model=None, ci: float | None = None,
                          alpha: float = 0.01, max_gm: int = 3, model_error: float = 0.001,
-                         record_length: bool = True) -> NoiseModel:
+                         record_length: bool = True, prefer_gm: bool = True) -> NoiseModel:
     """Identify the noise model of a record from its overlapping Allan variance.
 
     The estimator, the model selection and the intervals are described in the docstring of
@@ -57,6 +57,10 @@ def identify_noise_model(taus, avar, fs: float, n, *, model=None, ci: float | No
     record_length : bool, optional
         Predict, for each identified term known to worse than 10 %, the record length that
         would give 10 % (default True; a few more covariance evaluations).
+    prefer_gm : bool, optional
+        Where flicker and a Gauss-Markov term both fit, choose the Gauss-Markov model (default
+        True: a filter can carry it); False: the criterion alone chooses (a simulator's twin,
+        which carries flicker). Either way the other fit is kept in ``alternative``.
 
     Returns
     -------
@@ -69,7 +73,8 @@ def identify_noise_model(taus, avar, fs: float, n, *, model=None, ci: float | No
     t, v, m, segs, fs = _checked_curve(taus, avar, fs, n)
     stated = None if model is None else _checked_model(model, t.size)
     pb = _Problem(t, v, m, segs, fs, model_error)
-    big, fit, weak, other, log = _fit_and_select(pb, stated, alpha, max_gm, model_error)
+    big, fit, weak, other, log = _fit_and_select(pb, stated, alpha, max_gm, model_error,
+                                                 prefer_gm)
     cov_v = pb.covariance(*big.coefficients())
     # the parameter covariance is scaled by J / dof when the curve departs from the model
     dof = t.size - fit.spec.n_params
@@ -151,7 +156,8 @@ def _checked_model(model, k: int) -> tuple[tuple[str, ...], int]:
 
 # ---------------------------------------------------------------------------------------------
 # The fit and the selection
-def _fit_and_select(pb: _Problem, stated, alpha: float, max_gm: int, model_error: float):
+def _fit_and_select(pb: _Problem, stated, alpha: float, max_gm: int, model_error: float,
+                    prefer_gm: bool = True):
     """(largest model, fitted model, weak terms, the selection's log) of the curve in ``pb``:
     the stated model (``(linear, n_gm)``) or the selected one (``stated`` None), under the
     weights of the largest model; once more with a larger model error when the curve departs
@@ -159,7 +165,8 @@ def _fit_and_select(pb: _Problem, stated, alpha: float, max_gm: int, model_error
     from scipy.stats import chi2
 
     log: list[str] = []
-    big, fit, weak, other, steps = _weights_and_fit(pb, model_error, stated, alpha, max_gm)
+    big, fit, weak, other, steps = _weights_and_fit(pb, model_error, stated, alpha, max_gm,
+                                                    prefer_gm)
     dof = pb.taus.size - fit.spec.n_params
     if dof > 0 and chi2.sf(fit.J, dof) < 0.01:
         # The curve departs from every model of these terms more than its statistical error
@@ -171,12 +178,14 @@ def _fit_and_select(pb: _Problem, stated, alpha: float, max_gm: int, model_error
                    f"(J = {fit.J:.3g} on {dof} degrees of freedom): a model error of "
                    f"{100 * eps:.2g} % per point brings J to its degrees of freedom; selected "
                    "again with it")
-        big, fit, weak, other, steps = _weights_and_fit(pb, eps, stated, alpha, max_gm)
+        big, fit, weak, other, steps = _weights_and_fit(pb, eps, stated, alpha, max_gm,
+                                                        prefer_gm)
     log.extend(steps)
     return big, fit, weak, other, log
 
 
-def _weights_and_fit(pb: _Problem, eps: float, stated, alpha: float, max_gm: int):
+def _weights_and_fit(pb: _Problem, eps: float, stated, alpha: float, max_gm: int,
+                     prefer_gm: bool = True):
     """Omega, once for every candidate (as GMWM's is model-free): the covariance under the
     largest model (every linear term and the Gauss-Markov terms that lower J), fitted
     twice with the weights at its own estimate (a smaller model's covariance would
@@ -194,7 +203,7 @@ def _weights_and_fit(pb: _Problem, eps: float, stated, alpha: float, max_gm: int
     if stated is not None:
         fit, weak, other = _stated(pb, *stated), {}, None
     else:
-        fit, weak, other = _select(pb, alpha, max_gm, steps)
+        fit, weak, other = _select(pb, alpha, max_gm, steps, prefer_gm)
     return big, pb.refine(fit.spec), weak, other, steps
 
 

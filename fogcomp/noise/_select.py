@@ -15,9 +15,11 @@ distance-difference test of the method of moments (Newey & West, Int. Econ. Rev.
 one for a Gauss-Markov term whose correlation time is searched (:func:`_gm_threshold`). So
 between two nested candidates C chooses exactly as that test at its stated nominal level
 (``alpha`` = 1 % by default: a term absent from the record enters in about 1 % of records);
-WVIC's penalty of 2 would let a Gauss-Markov term absent from a white record in at one record
-in three (its best gain over the octaves exceeds 4 that often, measured below). Non-nested
-candidates (a flicker floor against a Gauss-Markov hump) are compared by the same C.
+WVIC's penalty of 2 per parameter is, for one variance on its boundary, a test at level 8 %
+(half of chi-squared(1)'s 16 % beyond 2), and looser still for a Gauss-Markov term whose
+correlation time is searched over the octaves; the issue's goal (a phantom term in at most 1
+of 20 records) needs the 1 % level. Non-nested candidates (a flicker floor against a
+Gauss-Markov hump) are compared by the same C.
 
 The candidates (:func:`_candidates`): 0, 1 and 2 Gauss-Markov terms (up to ``max_gm``) with
 every IEEE term and without each combination of B, K and R (:data:`CANDIDATE_DROPS`); each
@@ -203,9 +205,10 @@ def _candidates(pb: _Problem, alpha: float, max_gm: int) -> _Selection:
     return sel
 
 
-def _select(pb: _Problem, alpha: float, max_gm: int, log: list):
+def _select(pb: _Problem, alpha: float, max_gm: int, log: list, prefer_gm: bool = True):
     """The selected model (module docstring): (fit, weak terms, the other model that fits as
-    well or None). ``weak`` maps each IEEE term kept in the model though not significant to
+    well or None); ``prefer_gm`` False: by the criterion alone, the Gauss-Markov model that
+    fits as well only reported. ``weak`` maps each IEEE term kept in the model though not significant to
     (rise of J when removed, critical value)."""
     from scipy.stats import chi2
 
@@ -221,18 +224,19 @@ def _select(pb: _Problem, alpha: float, max_gm: int, log: list):
         fits = dof > 0 and chi2.sf(sw.fit.J, dof) >= alpha
         both = (f"{best.fit.spec.label()} (J {best.fit.J:.4g}) and {sw.fit.spec.label()} "
                 f"(J {sw.fit.J:.4g})")
-        if sw_crit <= best.crit + SWAP_MARGIN:
+        if sw_crit <= best.crit + SWAP_MARGIN and prefer_gm:
             chosen, other = sw, best
             log.append(f"both fit: {both}; the Gauss-Markov model chosen (its criterion, the "
                        f"new term charged as the one it replaces, larger by "
                        f"{sw_crit - best.crit:.3g} <= {SWAP_MARGIN:g}; a filter can carry it, "
                        "not a flicker floor)")
-        elif fits:
+        elif fits or sw_crit <= best.crit + SWAP_MARGIN:
             other = sw
             log.append(f"both fit: {both}; the Gauss-Markov model's criterion, the new term "
                        f"charged as the one it replaces, is larger by "
-                       f"{sw_crit - best.crit:.3g} (> {SWAP_MARGIN:g}): "
-                       f"{best.fit.spec.label()} kept")
+                       f"{sw_crit - best.crit:.3g}" + (f" (> {SWAP_MARGIN:g})" if prefer_gm
+                                                      else " (prefer_gm off)")
+                       + f": {best.fit.spec.label()} kept")
     cur = chosen.fit
     if chosen.weak:
         # the terms the record does not show are put back (weak, reported as upper bounds)

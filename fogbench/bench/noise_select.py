@@ -54,7 +54,7 @@ PROFILES = [
     Profile("white + GM(0.05 deg/h, 500 s), 8 h at 10 Hz", 10.0, 8.0,
             {"N": 0.01 * DEG_RT_H}, ((0.05 * DPH, 500.0),)),
     Profile("white + GM(0.1, 20 s) + GM(0.05, 2000 s), 12 h at 10 Hz", 10.0, 12.0,
-            {"N": 0.03 * DEG_RT_H}, ((0.1 * DPH, 20.0), (0.05 * DPH, 2000.0))),
+            {"N": 0.01 * DEG_RT_H}, ((0.1 * DPH, 20.0), (0.05 * DPH, 2000.0))),
     Profile("white + flicker + RRW (tactical), 24 h at 10 Hz", 10.0, 24.0,
             {"N": 0.03 * DEG_RT_H, "B": 0.1 * DPH, "K": 0.1 * DPH_RT_H}),
     Profile("navigation: white + flicker + GM(0.005 deg/h, 3000 s), 72 h at 1 Hz", 1.0, 72.0,

@@ -194,10 +194,6 @@ def _binomial_interval(k: int, n: int, level: float = 0.95) -> tuple[float, floa
 
 
 def run(seeds: int = 20) -> None:
-    from fogbench.bench.joint import print_joint
-
-    print_joint(seeds)
-    print()
     res = check_power(seeds)
     print(f"device check's whole-curve test at the 5 % level: {seeds} logs of 16 h at 1 Hz "
           "of the tactical preset with a Gauss-Markov drift (0.05 deg/h, 500 s), each against "

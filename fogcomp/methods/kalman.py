@@ -29,7 +29,7 @@ Speed (the same filter, :func:`local_level_filter`): the covariance of this filt
 depend on the data, and with Q > 0 it converges geometrically (by (1 - K)^2 per sample) to the
 steady state of the Riccati equation (:func:`steady_state_gain`). While P is more than
 ``CONVERGED`` (relative) from its steady state, filterpy's ``KalmanFilter`` update runs written
-for scalars (:func:`_filter_scalar`: its operations in its order over Python floats, about 20
+for scalars (``_filter_scalar``: its operations in its order over Python floats, about 20
 times faster than its 1 x 1 matrices; the transient is about 14 / K samples, 14,000 at a gain of
 1e-3); after that the filter is the first-order recursion ``x_k = (1 - K) x_{k-1} + K z_k`` with
 the steady gain, run by ``scipy.signal.lfilter`` from the state the transient reached. Measured

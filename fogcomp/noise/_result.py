@@ -148,7 +148,7 @@ class NoiseModel:
         True when the model was stated (``model=``) rather than selected.
     alternative : dict or None
         The other model that fits as well as the selected one, when flicker and a Gauss-Markov
-        term both fit (:mod:`fogcomp.noise._select`): ``model`` (its label), ``coefficients``
+        term both fit (``fogcomp.noise._select``): ``model`` (its label), ``coefficients``
         ({term: SI}), ``gm`` ([{"sigma": rad/s, "tau": s}]), ``J``, ``dof``, ``p_value``.
     """
 
@@ -263,7 +263,7 @@ class NoiseModel:
 
     def to_datasheet(self) -> dict:
         """The whole model in datasheet units, a JSON-ready dict of this shape (version
-        :data:`DATASHEET_VERSION`; a reader checks ``format`` and ``version`` first: version 1
+        ``fogcomp.noise._result.DATASHEET_VERSION``; a reader checks ``format`` and ``version`` first: version 1
         had neither key, no ``name`` per term, no ``alternative``)::
 
             {"format": "fogcomp.noise datasheet", "version": 2,
@@ -286,7 +286,7 @@ class NoiseModel:
              "fit": {"J", "dof", "p_value", "scale", "alpha", "model_error"},
              "selection": [str, ...]}
 
-        ``<key>`` is the term's datasheet key with its unit (:data:`DATASHEET`:
+        ``<key>`` is the term's datasheet key with its unit (``fogcomp.noise._result.DATASHEET``:
         ``arw_deg_rt_h``, ``bias_instability_dph``, ``rrw_dph_rt_h``, ``quantisation_arcsec``,
         ``rate_ramp_dph_per_h``, ``gm_sigma_dph``)."""
         fr = self.floor_reading

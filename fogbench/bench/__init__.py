@@ -18,7 +18,7 @@ __all__ = ["main"]
 def main(seconds: float = 600.0, repeats: int = 5, noise_seeds: int = 20,
          quick: bool = False) -> int:
     """Every benchmark in turn (``fogbench bench``), or with ``quick`` every speed ratio on
-    short records (:func:`quick`); returns 0."""
+    short records (``_quick``, its own lengths and repeats); returns 0."""
     if quick:
         return _quick()
     print("fogbench bench: the whole bench takes an hour or more on two cores (the noise "

@@ -15,7 +15,9 @@ def add_parser(sub) -> None:
                    help="records per case of the noise identifier's table (default 20)")
     b.add_argument("--quick", action="store_true",
                    help="every speed ratio on short records, no accuracy tables (a few "
-                        "minutes; the whole bench takes an hour or more)")
+                        "minutes; its own record lengths and 3 repeats: --seconds, --repeats "
+                        "and --noise-seeds apply to the whole bench; that takes an hour or "
+                        "more)")
     b.set_defaults(func=_bench)
 
 

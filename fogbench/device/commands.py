@@ -270,7 +270,7 @@ def _read_fit_logs(opts: FitOptions):
     one); its axis and the static logs' must be one."""
     statics = []
     for p in opts.static:
-        s, log = _read_static(p, opts, acc=bool(opts.multipos))
+        s, log = _read_static(p, opts, acc=bool(opts.multipos), temp=bool(opts.thermal))
         print(log.describe(), file=sys.stderr)
         statics.append(_stated_attitude(s, s.axis, opts))
     if len({s.axis for s in statics}) > 1:
@@ -286,7 +286,7 @@ def _read_fit_logs(opts: FitOptions):
         curve = (f"{opts.curve} (axis {ax})", t, a**2, fs, samples)
     thermal = None
     if opts.thermal:
-        thermal, tlog = _read_thermal(opts.thermal, opts)
+        thermal, tlog = _read_thermal(opts.thermal, opts, acc=bool(opts.multipos))
         print(tlog.describe(), file=sys.stderr)
         thermal = _stated_attitude(thermal, next(c for c in tlog.channels
                                                  if c.startswith("gyro_"))[-1], opts)

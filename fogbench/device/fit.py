@@ -190,11 +190,19 @@ def thermal_at(th: dict, temp: np.ndarray, ci: float) -> tuple[float, float]:
     temperature), from the thermal fit's coefficients with their covariance, the coil's lag
     profiled out (:func:`fogbench.device.thermal.combination`); its interval at ``ci`` over
     that level's z gives the standard deviation."""
-    from fogbench.device.thermal import T_REF_C, combination
+    from fogbench.device.thermal import combination
+
+    v, lo, hi = combination(th, _soaked(temp), ci)
+    return v / DPH, (hi - lo) / 2 / _z(ci) / DPH
+
+
+def _soaked(temp) -> list:
+    """The thermal fit's columns [1, dT, dT^2, dT/dt, dT dT/dt] averaged over a soaked log at
+    the sensor readings ``temp`` (deg C), its constant left out: [0, mean dT, mean dT^2, 0, 0]."""
+    from fogbench.device.thermal import T_REF_C
 
     d = np.asarray(temp, float) - T_REF_C
-    v, lo, hi = combination(th, [0.0, float(np.mean(d)), float(np.mean(d * d)), 0.0, 0.0], ci)
-    return v / DPH, (hi - lo) / 2 / _z(ci) / DPH
+    return [0.0, float(np.mean(d)), float(np.mean(d * d)), 0.0, 0.0]
 
 
 def _undetermined(fit: DeviceFit) -> None:
@@ -357,9 +365,15 @@ def _t_correction(fit: DeviceFit, static: list, thermal, ci: float):
     from fogbench.device.thermal import T_REF_C
 
     name, th = thermal
+    from fogbench.device.thermal import combination
+
     parts = [thermal_at(th, log.temp, ci) for log in static]
     t_corr = [v * DPH for v, _ in parts]
-    t_sd = float(np.sqrt(np.mean([sd**2 for _, sd in parts])))
+    # the bias is the logs' mean: its error from the terms is that of their mean correction,
+    # the columns averaged over the logs (the coefficients' correlation kept)
+    _, lo, hi = combination(th, list(np.mean([_soaked(log.temp) for log in static], axis=0)),
+                            ci)
+    t_sd = (hi - lo) / 2 / _z(ci) / DPH
     text = (f", less the temperature terms fitted to {name} at each log's mean temperature ("
             + "; ".join(f"{log.name}: {float(np.mean(log.temp)):.3g} deg C from "
                         f"{log.temp_source or 'its temp column'}, {v:.4g} deg/h"
@@ -485,8 +499,8 @@ def _thermal_constant(log, th: dict, ci: float, earth_rate, mp, mp_name):
 
         g, g_sd = g_terms_at(mp, np.array([log.f]))
         g, g_sd = float(g[0]) / DPH, g_sd / DPH
-        h = math.hypot((b - a) / 2, _z(ci) * g_sd)
-        v, a, b = v - g, a - g + (b - a) / 2 - h, b - g - (b - a) / 2 + h
+        zg = _z(ci) * g_sd                 # each side widened, the profile's shape kept
+        v, a, b = v - g, v - g - math.hypot(v - a, zg), v - g + math.hypot(b - v, zg)
         what.append(f"less the g terms fitted to {mp_name} at its specific force "
                     f"[{', '.join(f'{x:.3g}' for x in log.f)}] g from {log.f_source} "
                     f"({g:.4g} deg/h, their uncertainty added to the interval)")

@@ -25,12 +25,12 @@ def _channel(log, axis: str | None, path) -> str:
     return gyros[0]
 
 
-def _read_static(path, opts, acc: bool = False) -> tuple[StaticLog, object]:
-    """One gyro channel of a static log and its temperature column where it has one; with
-    ``acc``, its accelerometer columns too where it has all three (their mean specific force
-    in g: the log's attitude)."""
+def _read_static(path, opts, acc: bool = False, temp: bool = False) -> tuple[StaticLog, object]:
+    """One gyro channel of a static log; with ``temp``, its temperature column too where it
+    has one; with ``acc``, its accelerometer columns where it has all three (their mean
+    specific force in g: the log's attitude)."""
     chans = [f"gyro_{opts.axis}"] if opts.axis else ["gyro_*"]
-    log = opts.read(path, chans + (["acc_*?"] if acc else []) + ["temp?"])
+    log = opts.read(path, chans + (["acc_*?"] if acc else []) + (["temp?"] if temp else []))
     ch = _channel(log, opts.axis, path)
     if log.units[ch] == "au":
         raise LogError(f"{path}: column {log.sources[ch]!r} is in raw counts (au); a device "
@@ -62,16 +62,17 @@ def _attitude(path, log) -> tuple[tuple | None, str]:
             "its " + ", ".join(log.sources[c] for c in accs) + " columns")
 
 
-def _read_thermal(path, opts):
+def _read_thermal(path, opts, acc: bool = False):
     from fogbench.device.thermal import ThermalLog
 
-    chans = [f"gyro_{opts.axis}" if opts.axis else "gyro_*", "temp", "acc_*?"]
+    chans = [f"gyro_{opts.axis}" if opts.axis else "gyro_*", "temp"] + (["acc_*?"] if acc
+                                                                         else [])
     log = opts.read(path, chans, gaps="continuous")
     ch = _channel(log, opts.axis, path)
     if log.units[ch] == "au":
         raise LogError(f"{path}: column {log.sources[ch]!r} is in raw counts (au); a device "
                        "file needs a rate unit (dps, rps, dph)")
-    f, src = _attitude(path, log)
+    f, src = _attitude(path, log) if acc else (None, "")
     return ThermalLog(str(path), log.channels[ch], log.channels["temp"], log.fs,
                       log.sources[ch], f=f, f_source=src), log
 

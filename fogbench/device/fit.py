@@ -215,14 +215,6 @@ def _undetermined(fit: DeviceFit) -> None:
             fit.undetermined[key] = "not measured by these logs"
 
 
-#: The device file feeds the FOG error model, which carries flicker as it is (and one
-#: Gauss-Markov term): where flicker and a Gauss-Markov term both fit a log, the criterion alone
-#: chooses (``fogcomp.noise``'s ``prefer_gm`` off), and the other fit is noted. Measured with
-#: the preference on: the 1 h ADIS16405 round trip read its flicker as a Gauss-Markov term in 8
-#: of 20 seeds.
-PREFER_GM = False
-
-
 def _noise_model(fit: DeviceFit, static: list, curve, ci: float, min_tau):
     """(the noise model the file's terms come from, the static logs' pooled model, where it
     comes from): the curve's, else the static logs' pooled."""
@@ -236,7 +228,7 @@ def _noise_model(fit: DeviceFit, static: list, curve, ci: float, min_tau):
             raise ValueError(f"--min-tau-s {min_tau:g}: leaves {int(keep.sum())} averaging "
                              "times of the curve; at least 3 are needed")
         model = identify_noise_model(np.asarray(taus)[keep], np.asarray(avar)[keep], fs, n,
-                                     ci=ci, prefer_gm=PREFER_GM)
+                                     ci=ci)
         origin = f"the Allan curve {name}"
         fit.inputs.append(f"Allan curve {name} ({n} samples at {fs:g} Hz)")
     for log in static:
@@ -269,7 +261,7 @@ def _pooled_static_model(fit: DeviceFit, static: list, ci: float, min_tau):
     joined = StaticLog(pool[0].name if len(pool) == 1 else f"the {len(pool)} static logs "
                        "pooled", np.concatenate([s.rate for s in pool]), fs, tuple(segs))
     _, model = allan_analysis(joined.rate, fs, _octaves(joined, min_tau), ci=ci,
-                              segments=segs, prefer_gm=PREFER_GM)
+                              segments=segs)
     if len(pool) == 1:
         where = f"the static log {pool[0].name}"
     else:
@@ -635,20 +627,10 @@ def _noise_entries(fit: DeviceFit, model, origin: str, fs: float) -> None:
                  key=lambda t: -t.value)
     if gms:
         g = gms[0]
-        fit.entries.append(Entry("gm_drift_dps", g.value / DPS, g.low / DPS,
-                                 None if g.high is None else g.high / DPS,
+        fit.entries.append(Entry("gm_drift_dps", g.value / DPS, g.low / DPS, g.high / DPS,
                                  f"the strongest Gauss-Markov term of {origin}"))
         fit.entries.append(Entry("gm_time_constant_s", g.tau, g.tau_low, g.tau_high,
                                  "its correlation time"))
-    alt = getattr(model, "alternative", None)
-    if alt is not None:
-        gm = "; ".join(f"{g['sigma'] / DPH:.3g} deg/h, {g['tau']:.3g} s" for g in alt["gm"])
-        fit.notes.append(f"{origin} is fitted as well by {alt['model']} (J {alt['J']:.3g} on "
-                         f"{alt['dof']} degrees of freedom" + (f"; Gauss-Markov {gm}" if gm
-                                                               else "") + "): the record "
-                         "does not tell flicker from a Gauss-Markov term; the file holds the "
-                         "model the criterion chose")
-    if gms:
         for other in gms[1:]:
             fit.notes.append(f"{origin} shows a further Gauss-Markov term ({other.value / DPH:.3g} "
                              f"deg/h, {other.tau:.3g} s); the error model holds one, so it is "

@@ -100,7 +100,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["NoiseValue", "pick", "values_from_models", "gm_terms", "kalibr_text", "openvins_text", "is_own",
+__all__ = ["NoiseValue", "pick", "values_from_models", "kalibr_text", "openvins_text", "is_own",
            "MARK", "TEXTS", "ToolIntrinsics", "intrinsics_from_ferraris", "kalibr_intrinsics_text",
            "openvins_intrinsics_text", "INTRINSICS_TEXTS"]
 
@@ -150,31 +150,7 @@ def values_from_models(gyro: dict, acc: dict | None) -> dict:
             else:
                 out[sensor, term] = pick(models, term) or (
                     f"the record neither shows nor bounds {term}; fill it in")
-        if models is not None:
-            out[sensor, "GM"] = gm_terms(models)
     return out
-
-
-def gm_terms(models: dict) -> list:
-    """Every selected Gauss-Markov term of every axis: [(axis, sigma SI, correlation time s,
-    its interval (low, high) s)], by axis then correlation time. Neither tool's noise model has
-    a Gauss-Markov state; the files list them in comments (all of them, not the strongest)."""
-    return [(ax, float(t.value), float(t.tau), (t.tau_low, t.tau_high))
-            for ax, m in models.items() for t in m.gm_terms if t.status == "identified"]
-
-
-def _gm_comments(values: dict) -> list:
-    lines = []
-    for sensor in ("gyroscope", "accelerometer"):
-        gms = values.get((sensor, "GM")) or []
-        if gms:
-            lines.append(f"{sensor} Gauss-Markov terms the record shows (no state for them in "
-                         "this model: a filter that carries them takes sigma and tau, or the "
-                         "discrete form in allan.json's 'filter'):")
-            unit = "rad/s" if sensor == "gyroscope" else "m/s^2"
-            lines += [f"  {ax}: sigma {sg:.6g} {unit}, tau {T:.6g} s (interval {lo:.3g}..{hi:.3g} "
-                      "s)" for ax, sg, T, (lo, hi) in gms]
-    return lines
 
 
 _UNITS = {("gyroscope", "N"): "rad/s/sqrt(Hz)", ("gyroscope", "K"): "rad/s^2/sqrt(Hz)",
@@ -232,7 +208,6 @@ def kalibr_text(values: dict, fs: float, source: str, *, topic: str = "/imu0",
     for key, value, notes in _entries(values, inflate_density, inflate_walk):
         lines += [f"# {n}" for n in notes]
         lines.append(f"{key}: {_num9(value)}" if value is not None else f"# {key}:")
-    lines += [f"# {n}" for n in _gm_comments(values)]
     lines += [f"rostopic: {topic}", f"update_rate: {_num(fs)}"]
     return "\n".join(lines) + "\n"
 
@@ -250,7 +225,6 @@ def openvins_text(values: dict, fs: float, source: str, *,
     for key, value, notes in _entries(values, inflate_density, inflate_walk):
         lines += [f"  # {n}" for n in notes]
         lines.append(f"  {key}: {_num9(value)}" if value is not None else f"  # {key}:")
-    lines += [f"  # {n}" for n in _gm_comments(values)]
     ident = [f"    - [{', '.join('1.0' if i == j else '0.0' for j in range(3))}]"
              for i in range(3)]
     zero = ["    - [0.0, 0.0, 0.0]"] * 3

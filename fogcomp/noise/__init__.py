@@ -52,14 +52,13 @@ derivation is in ``fogcomp/noise/_covariance.py``).
 linear in the variances (Q^2, N^2, B^2, K^2, R^2, sigma_g^2), solved by non-negative least squares
 on the whitened system; the correlation times are found by a grid over the octaves and a
 Nelder-Mead refinement of ``J``. ``Omega`` is computed at a pilot fit and then once more at the
-estimate (two steps, as GMWM's two-step estimator). Model selection (``_select``) fits every
-candidate sum (0-2 Gauss-Markov terms, with and without B, K and R; several starts of each
-correlation time) under one ``Omega`` and ranks them by ``J`` plus the level-``alpha`` critical
-value of the distance-difference test (Newey & West, Int. Econ. Rev. 28(3), 777-787, 1987) per
-term, the information-criterion form of GMWM's selection (WVIC, Guerrier et al. 2016, charges
-2 per parameter); where flicker and a Gauss-Markov term both fit, the Gauss-Markov model is
-chosen when its criterion is lower by WVIC's 2 for its extra parameter, and the other fit is
-kept (``NoiseModel.alternative``). The intervals come from the covariance
+estimate (two steps, as GMWM's two-step estimator). Model selection is by the
+distance-difference test of the method of moments (Newey & West, "Hypothesis testing with
+efficient method of moments estimation", Int. Econ. Rev. 28(3), 777-787, 1987): with ``Omega``
+the inverse covariance, the increase of J when q parameters are removed is asymptotically
+chi-squared with q degrees of freedom; a term is kept only when removing it raises J by more
+than the 1 - ``alpha`` quantile (``alpha`` = 1 % by default), and a further Gauss-Markov term is
+added only when it lowers J by as much. The intervals come from the covariance
 ``(D^T Omega D)^-1`` of the estimate (D the Jacobian of the model), scaled by ``J / dof`` when
 the fit is significantly worse than its error bars say (a real curve departing from the model);
 a variance coefficient's normal interval is taken to the square root, a correlation time's is
@@ -69,8 +68,7 @@ normal in log T.
 processes, their Allan variance and the parsing of a stated model; ``_covariance`` the
 covariance of the estimates; ``_fit`` fitting one stated model; ``_select`` choosing among
 models; ``_intervals`` the intervals and the record length a term would need; ``_result`` the
-result types :class:`NoiseModel` and :class:`ModelTerm`; ``_terms`` each term's status,
-interval or bound; ``_identify`` the identifier that runs
+result types :class:`NoiseModel` and :class:`ModelTerm`; ``_identify`` the identifier that runs
 them in turn.
 """
 
@@ -84,11 +82,10 @@ from ._processes import (
     avar_term,
     parse_model,
 )
-from ._result import DATASHEET, DATASHEET_VERSION, ModelTerm, NoiseModel
+from ._result import DATASHEET, ModelTerm, NoiseModel
 
 __all__ = [
     "DATASHEET",
-    "DATASHEET_VERSION",
     "LINEAR_TERMS",
     "TERM_NAMES",
     "ModelTerm",

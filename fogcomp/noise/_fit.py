@@ -64,23 +64,11 @@ class _Problem:
         self.model_error = model_error
         self.W = None
         self._bases: dict = {}
-        self._gm_cols: dict = {}
 
     def design(self, spec: _Spec) -> np.ndarray:
         cols = [avar_term(t, self.taus) for t in spec.linear]
-        cols += [self.gm_column(T) for T in spec.gm]
+        cols += [avar_gm(self.taus, T, self.fs) for T in spec.gm]
         return np.column_stack(cols) if cols else np.zeros((self.taus.size, 0))
-
-    def gm_column(self, T: float) -> np.ndarray:
-        """A unit Gauss-Markov term's Allan variance at the averaging times (cached: the
-        multi-start grids ask for the same correlation times for every candidate model)."""
-        key = float(T)
-        col = self._gm_cols.get(key)
-        if col is None:
-            col = avar_gm(self.taus, key, self.fs)
-            if len(self._gm_cols) < 4096:
-                self._gm_cols[key] = col
-        return col
 
     def basis(self, Ts: tuple) -> _CovBasis:
         """The covariance basis of the structure Q, N, B, K + GM(T) for T in ``Ts`` (cached:
@@ -161,61 +149,6 @@ class _Problem:
         return self.refine(best.spec)
 
 
-#: Correlation times of the multi-start grid per octave of the averaging times, and the number
-#: of the grid's best local minima refined (for one and for two Gauss-Markov terms).
-GRID_PER_OCTAVE = 1.5
-N_STARTS = 3
-
-
-def _grid(pb: _Problem, per_octave: float = GRID_PER_OCTAVE) -> np.ndarray:
-    lo, hi = pb.t_bounds()
-    return np.geomspace(lo, hi, max(5, int(round(math.log2(hi / lo) * per_octave)) + 1))
-
-
-def _local_minima(J: np.ndarray) -> list:
-    """Indices of the local minima of J over a grid of any dimension (ties kept), best
-    first."""
-    from scipy.ndimage import minimum_filter
-
-    finite = np.where(np.isfinite(J), J, np.inf)
-    mins = finite <= minimum_filter(finite, size=3, mode="nearest")
-    idx = [tuple(int(a) for a in ix) for ix in np.argwhere(mins & np.isfinite(finite))]
-    return sorted(idx, key=lambda ix: finite[ix])
-
-
-def _multi_start(pb: _Problem, linear: tuple, n_gm: int, extra_starts=()) -> _Fit:
-    """The best fit of ``linear`` + ``n_gm`` Gauss-Markov terms over several starts of their
-    correlation times: J on a log-spaced grid of correlation times across the averaging times
-    the record holds (every pair of them for two terms), its best ``N_STARTS`` local minima
-    (and ``extra_starts``, tuples of correlation times) each refined by Nelder-Mead, the best
-    kept: a slow term whose basin is narrow is not lost to the nearest local minimum of a
-    fast one."""
-    if n_gm == 0:
-        return pb.solve(_Spec(linear))
-    grid = _grid(pb, GRID_PER_OCTAVE if n_gm == 1 else GRID_PER_OCTAVE / 1.5)
-    if n_gm == 1:
-        J = np.array([pb.solve(_Spec(linear, (float(T),))).J for T in grid])
-        starts = [(float(grid[i]),) for (i,) in _local_minima(J)[:N_STARTS]]
-    elif n_gm == 2:
-        J = np.full((grid.size, grid.size), np.nan)
-        for i in range(grid.size):
-            for j in range(i + 1, grid.size):
-                J[i, j] = pb.solve(_Spec(linear, (float(grid[i]), float(grid[j])))).J
-        starts = [(float(grid[i]), float(grid[j])) for i, j in _local_minima(J)[:N_STARTS]]
-    else:
-        fit = pb.solve(_Spec(linear))
-        for _ in range(n_gm):
-            fit = pb.add_gm(fit.spec)
-        starts = [fit.spec.gm]
-    starts += [tuple(sorted(s)) for s in extra_starts if len(s) == n_gm]
-    best = None
-    for s in starts:
-        f = pb.refine(_Spec(linear, tuple(sorted(s))))
-        if best is None or f.J < best.J:
-            best = f
-    return best
-
-
 def _pilot(pb: _Problem) -> tuple[dict, list]:
     """A first model for the weights: the five linear terms fitted with each point weighted
     by its variance over the model (IEEE Std 952 Annex C.2 error bars, n/m clusters)."""
@@ -238,15 +171,10 @@ def _pilot(pb: _Problem) -> tuple[dict, list]:
 
 
 def _stated(pb: _Problem, linear: tuple, n_gm: int) -> _Fit:
-    """A stated model's fit, its correlation times from several starts (:func:`_multi_start`,
-    with the greedy one-at-a-time path as one more start)."""
     fit = pb.solve(_Spec(linear))
     for _ in range(n_gm):
         fit = pb.add_gm(fit.spec)
-    if n_gm > 2:
-        return fit
-    best = _multi_start(pb, linear, n_gm, extra_starts=(fit.spec.gm,))
-    return best if best.J <= fit.J else fit
+    return fit
 
 
 def _jacobian(pb: _Problem, fit: _Fit) -> np.ndarray:

@@ -5,20 +5,21 @@
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from .._stats import ONE_SIGMA_CI
-from ._fit import _Fit, _pilot, _Problem, _Spec, _stated
+from ._fit import _Fit, _param_cov, _pilot, _Problem, _Spec, _stated
+from ._intervals import _interval_sqrt, _record_for, _score_interval
 from ._processes import FLICKER_FLOOR, LINEAR_TERMS, parse_model
-from ._result import NoiseModel
-from ._select import _saturated, _select
-from ._terms import _model_terms, _Report
+from ._result import ModelTerm, NoiseModel
+from ._select import _gm_threshold, _saturated, _select
 
 
 def identify_noise_model(taus, avar, fs: float, n, *, model=None, ci: float | None = None,
                          alpha: float = 0.01, max_gm: int = 3, model_error: float = 0.001,
-                         record_length: bool = True, prefer_gm: bool = True) -> NoiseModel:
+                         record_length: bool = True) -> NoiseModel:
     """Identify the noise model of a record from its overlapping Allan variance.
 
     The estimator, the model selection and the intervals are described in the docstring of
@@ -57,10 +58,6 @@ def identify_noise_model(taus, avar, fs: float, n, *, model=None, ci: float | No
     record_length : bool, optional
         Predict, for each identified term known to worse than 10 %, the record length that
         would give 10 % (default True; a few more covariance evaluations).
-    prefer_gm : bool, optional
-        Where flicker and a Gauss-Markov term both fit, choose the Gauss-Markov model (default
-        True: a filter can carry it); False: the criterion alone chooses (a simulator's twin,
-        which carries flicker). Either way the other fit is kept in ``alternative``.
 
     Returns
     -------
@@ -73,20 +70,18 @@ def identify_noise_model(taus, avar, fs: float, n, *, model=None, ci: float | No
     t, v, m, segs, fs = _checked_curve(taus, avar, fs, n)
     stated = None if model is None else _checked_model(model, t.size)
     pb = _Problem(t, v, m, segs, fs, model_error)
-    big, fit, weak, other, log = _fit_and_select(pb, stated, alpha, max_gm, model_error,
-                                                 prefer_gm)
+    big, fit, weak, log = _fit_and_select(pb, stated, alpha, max_gm, model_error)
     cov_v = pb.covariance(*big.coefficients())
     # the parameter covariance is scaled by J / dof when the curve departs from the model
     dof = t.size - fit.spec.n_params
     p_value = float(chi2.sf(fit.J, dof)) if dof > 0 else float("nan")
     scale = fit.J / dof if dof > 0 and p_value < 0.05 else 1.0
-    report = _Report.of(pb, fit, scale, ci, stated is not None, alpha, record_length)
-    terms = _model_terms(report, weak, log, max_gm)
+    terms = _model_terms(_Report.of(pb, fit, scale, ci, stated is not None, alpha,
+                                    record_length), weak, log)
     return NoiseModel(terms=terms, taus=t, avar=v, avar_cov=cov_v, fs=fs, n=segs, ci=ci,
                       J=float(fit.J), dof=int(dof), p_value=p_value, scale=float(scale),
                       floor_reading=_floor_reading(t, v, cov_v), selection=log,
-                      stated=stated is not None, alpha=alpha, model_error=float(pb.model_error),
-                      alternative=_alternative(pb, other))
+                      stated=stated is not None, alpha=alpha, model_error=float(pb.model_error))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -156,8 +151,7 @@ def _checked_model(model, k: int) -> tuple[tuple[str, ...], int]:
 
 # ---------------------------------------------------------------------------------------------
 # The fit and the selection
-def _fit_and_select(pb: _Problem, stated, alpha: float, max_gm: int, model_error: float,
-                    prefer_gm: bool = True):
+def _fit_and_select(pb: _Problem, stated, alpha: float, max_gm: int, model_error: float):
     """(largest model, fitted model, weak terms, the selection's log) of the curve in ``pb``:
     the stated model (``(linear, n_gm)``) or the selected one (``stated`` None), under the
     weights of the largest model; once more with a larger model error when the curve departs
@@ -165,8 +159,7 @@ def _fit_and_select(pb: _Problem, stated, alpha: float, max_gm: int, model_error
     from scipy.stats import chi2
 
     log: list[str] = []
-    big, fit, weak, other, steps = _weights_and_fit(pb, model_error, stated, alpha, max_gm,
-                                                    prefer_gm)
+    big, fit, weak, steps = _weights_and_fit(pb, model_error, stated, alpha, max_gm)
     dof = pb.taus.size - fit.spec.n_params
     if dof > 0 and chi2.sf(fit.J, dof) < 0.01:
         # The curve departs from every model of these terms more than its statistical error
@@ -178,14 +171,12 @@ def _fit_and_select(pb: _Problem, stated, alpha: float, max_gm: int, model_error
                    f"(J = {fit.J:.3g} on {dof} degrees of freedom): a model error of "
                    f"{100 * eps:.2g} % per point brings J to its degrees of freedom; selected "
                    "again with it")
-        big, fit, weak, other, steps = _weights_and_fit(pb, eps, stated, alpha, max_gm,
-                                                        prefer_gm)
+        big, fit, weak, steps = _weights_and_fit(pb, eps, stated, alpha, max_gm)
     log.extend(steps)
-    return big, fit, weak, other, log
+    return big, fit, weak, log
 
 
-def _weights_and_fit(pb: _Problem, eps: float, stated, alpha: float, max_gm: int,
-                     prefer_gm: bool = True):
+def _weights_and_fit(pb: _Problem, eps: float, stated, alpha: float, max_gm: int):
     """Omega, once for every candidate (as GMWM's is model-free): the covariance under the
     largest model (every linear term and the Gauss-Markov terms that lower J), fitted
     twice with the weights at its own estimate (a smaller model's covariance would
@@ -201,10 +192,10 @@ def _weights_and_fit(pb: _Problem, eps: float, stated, alpha: float, max_gm: int
         pb.set_weights(*big.coefficients())
     steps: list[str] = [f"weights (Omega) from the largest model, {big.spec.label()}"]
     if stated is not None:
-        fit, weak, other = _stated(pb, *stated), {}, None
+        fit, weak = _stated(pb, *stated), {}
     else:
-        fit, weak, other = _select(pb, alpha, max_gm, steps, prefer_gm)
-    return big, pb.refine(fit.spec), weak, other, steps
+        fit, weak = _select(pb, alpha, max_gm, steps)
+    return big, pb.refine(fit.spec), weak, steps
 
 
 def _misfit_model_error(pb: _Problem, big: _Fit, spec: _Spec, dof: int,
@@ -226,18 +217,120 @@ def _misfit_model_error(pb: _Problem, big: _Fit, spec: _Spec, dof: int,
     return math.exp(hi_e)
 
 
-def _alternative(pb: _Problem, other) -> dict | None:
-    """The other model that fits as well as the selected one (flicker against a Gauss-Markov
-    term), SI: its terms, J, degrees of freedom and chi-squared probability."""
-    from scipy.stats import chi2
+# ---------------------------------------------------------------------------------------------
+# The terms of the result
+@dataclass(frozen=True)
+class _Report:
+    """What the report of each term needs: the fit, its parameter covariance (scaled), the
+    normal quantiles of the intervals, and the identifier's options."""
 
-    if other is None:
-        return None
-    co, gm = other.coefficients()
-    dof = pb.taus.size - other.spec.n_params
-    return {"model": other.spec.label(), "coefficients": co,
-            "gm": [{"sigma": s, "tau": T} for s, T in gm], "J": float(other.J),
-            "dof": int(dof), "p_value": float(chi2.sf(other.J, dof)) if dof > 0 else None}
+    pb: _Problem
+    fit: _Fit
+    cov: np.ndarray          # covariance of the coefficients (and log T), times ``scale``
+    scale: float
+    z: float                 # normal quantile of the interval of content ci
+    z95: float               # of the one-sided 95 % bound
+    stated: bool
+    alpha: float
+    record_length: bool
+
+    @classmethod
+    def of(cls, pb, fit, scale, ci, stated, alpha, record_length) -> _Report:
+        from scipy.stats import norm
+
+        cov = _param_cov(pb, fit) * scale
+        return cls(pb, fit, cov, scale, float(norm.ppf(0.5 + ci / 2.0)), float(norm.ppf(0.95)),
+                   stated, alpha, record_length)
+
+
+def _model_terms(r: _Report, weak: dict, log: list) -> list:
+    """The five IEEE terms in their order (each in the model, or left out), then the
+    Gauss-Markov terms by correlation time."""
+    terms: dict = {}
+    for k, term in enumerate(r.fit.spec.linear):
+        terms[term] = _linear_term(r, k, weak.get(term))
+    gms = [_gm_term(r, g) for g in range(len(r.fit.spec.gm))]
+    # the terms left out: a one-sided 95 % upper bound from the model with the term forced in
+    for term in LINEAR_TERMS:
+        if term not in terms:
+            terms[term] = _left_out_term(r, term, log)
+    return [terms[x] for x in LINEAR_TERMS] + sorted(gms, key=lambda g: g.tau)
+
+
+def _interval(r: _Report, k: int):
+    """(value, low, high, sigma, bound) of the square root of coefficient k: the score
+    interval of content ci, the linearised sigma for display, the one-sided 95 % bound."""
+    sc = math.sqrt(max(r.cov[k, k], 0.0))
+    val, _, _, sigma = _interval_sqrt(float(r.fit.coef[k]), sc, r.z)
+    c_lo, c_hi = _score_interval(r.pb, r.fit, k, r.z, r.scale)
+    _, c_b = _score_interval(r.pb, r.fit, k, r.z95, r.scale, lower=False)
+    root = (lambda c: None if c is None else math.sqrt(c))
+    return val, math.sqrt(c_lo), root(c_hi), sigma, root(c_b)
+
+
+def _linear_term(r: _Report, k: int, weak) -> ModelTerm:
+    """Linear term k of the fit: identified, or (``weak``: (rise of J when removed, critical
+    value)) kept in the model but not significant, reported with its bound."""
+    term = r.fit.spec.linear[k]
+    val, lo, hi, sigma, bound = _interval(r, k)
+    rel = (sigma / val) if sigma and val else math.inf
+    # the record a 10 % estimate needs, for a term the record shows (a term it does not
+    # show has only a bound, and its estimate is no base for a prediction)
+    rec = _record_for(r.pb, r.fit, k, rel, scale=r.scale) \
+        if r.record_length and weak is None else None
+    label = r.fit.spec.label()
+    if weak is not None:
+        rise, need = weak
+        return ModelTerm(
+            term, "upper bound" if bound is not None else "not identified", val, lo, hi,
+            sigma, f"in the model ({label}) but not significant: removing it "
+            f"raises J by {rise:.3g} < {need:.3g}; "
+            + ("95 % upper bound from the model" if bound is not None else
+               "the record does not bound it from above"),
+            record_s_for_10pct=rec, bound=bound, in_model=True)
+    why = ("stated" if r.stated else "significant: removing it raises J by more than "
+           f"the level-{r.alpha:g} critical value") + f" (model {label})"
+    return ModelTerm(term, "identified", val, lo, hi, sigma, why,
+                     record_s_for_10pct=rec, bound=bound, in_model=True)
+
+
+def _gm_term(r: _Report, g: int) -> ModelTerm:
+    """Gauss-Markov term g of the fit, its correlation time's interval normal in log T."""
+    n_lin, n_gm = len(r.fit.spec.linear), len(r.fit.spec.gm)
+    T = r.fit.spec.gm[g]
+    k = n_lin + g
+    val, lo, hi, sigma, bound = _interval(r, k)
+    kt = n_lin + n_gm + g
+    st = math.sqrt(max(r.cov[kt, kt], 0.0))
+    rel = (sigma / val) if sigma and val else math.inf
+    rec = _record_for(r.pb, r.fit, k, rel, scale=r.scale) if r.record_length else None
+    return ModelTerm("GM", "identified", val, lo, hi, sigma,
+                     "stated" if r.stated else "significant: adding it lowered J by more "
+                     f"than the critical value {_gm_threshold(r.pb, r.alpha):.3g}",
+                     tau=float(T), tau_low=float(T * math.exp(-r.z * st)),
+                     tau_high=float(T * math.exp(r.z * st)), record_s_for_10pct=rec,
+                     bound=bound, in_model=True)
+
+
+def _left_out_term(r: _Report, term: str, log: list) -> ModelTerm:
+    """A linear term outside the fitted model: why (the selection's step that dropped it), and
+    its one-sided 95 % upper bound from the model refitted with it forced in, when there is
+    one."""
+    why = next((s for s in reversed(log) if s.startswith(f"dropped {term}:")), None)
+    try:
+        forced = r.pb.refine(_Spec(tuple(x for x in LINEAR_TERMS
+                                         if x in r.fit.spec.linear or x == term), r.fit.spec.gm))
+        k = forced.spec.linear.index(term)
+        _, c_b = _score_interval(r.pb, forced, k, r.z95, r.scale, lower=False)
+        bound = None if c_b is None else math.sqrt(c_b)
+    except (np.linalg.LinAlgError, ValueError):
+        bound = None
+    reason = (why or ("not in the stated model" if r.stated else "not selected"))
+    if bound is not None and math.isfinite(bound) and bound > 0:
+        return ModelTerm(term, "upper bound", None, None, None, None,
+                         reason + "; 95 % upper bound from the model with it "
+                         "forced in", bound=bound)
+    return ModelTerm(term, "not identified", None, None, None, None, reason)
 
 
 def _floor_reading(t: np.ndarray, v: np.ndarray, cov_v: np.ndarray) -> dict:

@@ -103,22 +103,11 @@ def avar_gm(taus, T: float, fs: float) -> np.ndarray:
         om = -math.expm1(-x)
         pm = np.exp(-m * x)
         out[big] = (m * om * (1.0 + phi) - phi * (1.0 - pm) * (3.0 - pm)) / (m * m * om * om)
-    small = np.flatnonzero(~big)
-    if small.size:
-        ms = tuple(int(m) for m in m_all.flat[small])
-        C = _gm_series_stack(ms)
-        a = np.asarray(ms, dtype=float) * x
-        acc = C[:, -1].copy()
-        for k in range(C.shape[1] - 2, -1, -1):      # Horner: sum_k e_k a^k, k = 1..
-            acc = acc * a + C[:, k]
-        out.flat[small] = acc * a
+    for i in np.flatnonzero(~big):
+        m = int(m_all.flat[i])
+        a = m * x
+        out.flat[i] = float(np.polyval(np.concatenate([_gm_series(m)[::-1], [0.0]]), a))
     return out
-
-
-@functools.lru_cache(maxsize=256)
-def _gm_series_stack(ms: tuple) -> np.ndarray:
-    """``_gm_series(m)`` of each m, stacked, shape (len(ms), _GM_SERIES_TERMS)."""
-    return np.array([_gm_series(m) for m in ms])
 
 
 def avar_model(taus, coefficients: dict, gm=(), fs: float | None = None) -> np.ndarray:

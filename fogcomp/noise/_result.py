@@ -9,10 +9,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..units import ARCSEC, DEG_RT_H, DPH, DPH_PER_H, DPH_RT_H
-from ._processes import LINEAR_TERMS, TERM_NAMES, avar_model
-
-#: The version of :meth:`NoiseModel.to_datasheet`'s shape (its docstring).
-DATASHEET_VERSION = 2
+from ._processes import TERM_NAMES, avar_model
 
 # datasheet unit (SI per unit) and key of each term's coefficient
 DATASHEET = {"N": (DEG_RT_H, "arw_deg_rt_h"), "B": (DPH, "bias_instability_dph"),
@@ -29,19 +26,14 @@ class ModelTerm:
     term : str
         ``"Q"``, ``"N"``, ``"B"``, ``"K"``, ``"R"`` or ``"GM"``.
     status : str
-        One meaning each, whether the model was selected or stated:
-        ``"identified"``: in the model, significant (stated: fitted above zero), with
-        ``value`` and its interval ``low``..``high``;
-        ``"upper bound"``: the record does not show it (not significant, left out, or stated
-        and fitted as zero): ``bound`` is its one-sided 95 % upper bound and ``low``, ``high``
-        are None; ``"not identified"``: neither shown nor bounded.
+        ``"identified"`` (significant at the selection's level), ``"upper bound"`` (not
+        significant: ``bound`` is its one-sided 95 % upper bound; when the term is still in the
+        model, ``value`` and its interval are the estimate) or ``"not identified"``.
     value : float or None
-        The coefficient, SI (GM: its standard deviation, rad/s): the estimate of a term in the
-        model (of an ``"upper bound"`` term kept in the model for the others' sake too: the
-        fitted curve's), None for a term outside it.
+        The coefficient, SI (GM: its standard deviation, rad/s); None for a term outside the
+        model.
     low, high : float or None
-        The interval of probability content ``ci`` (the model's), SI; only for
-        ``"identified"`` terms.
+        The interval of probability content ``ci`` (the model's), SI.
     sigma : float or None
         One-sigma uncertainty of ``value`` (linearised, symmetric: for display), SI.
     tau : float or None
@@ -55,9 +47,6 @@ class ModelTerm:
         One-sided 95 % upper bound of the coefficient, SI (None: the record does not bound it).
     in_model : bool
         Whether the term is part of the fitted model (the curve and the others' estimates).
-    bound_by_tau : tuple of (float, float)
-        GM outside the model: ``(T s, 95 % upper bound of sigma rad/s)`` at each correlation time
-        the record can see; ``bound`` is the largest of them.
     """
 
     term: str
@@ -73,7 +62,6 @@ class ModelTerm:
     record_s_for_10pct: float | None = None
     bound: float | None = None
     in_model: bool = False
-    bound_by_tau: tuple = ()
 
     @property
     def name(self) -> str:
@@ -81,9 +69,7 @@ class ModelTerm:
 
     @property
     def label(self) -> str:
-        if self.term == "GM":
-            return "GM" if self.tau is None else f"GM({self.tau:.3g} s)"
-        return self.term
+        return f"GM({self.tau:.3g} s)" if self.term == "GM" else self.term
 
     def to_datasheet(self) -> dict:
         """This term in datasheet units, the unit in every key (``arw_deg_rt_h``, its
@@ -99,9 +85,6 @@ class ModelTerm:
                "in_model": self.in_model, "reason": self.reason}
         if self.term == "GM":
             out.update(gm_tau_s=self.tau, gm_tau_low_s=self.tau_low, gm_tau_high_s=self.tau_high)
-            if self.bound_by_tau:
-                out["gm_bound95_by_tau"] = [{"tau_s": T, "gm_sigma_dph": b / unit}
-                                            for T, b in self.bound_by_tau]
         if self.record_s_for_10pct is not None:
             out["record_s_for_10pct"] = float(self.record_s_for_10pct)
         return out
@@ -146,10 +129,6 @@ class NoiseModel:
         The steps of the model selection.
     stated : bool
         True when the model was stated (``model=``) rather than selected.
-    alternative : dict or None
-        The other model that fits as well as the selected one, when flicker and a Gauss-Markov
-        term both fit (``fogcomp.noise._select``): ``model`` (its label), ``coefficients``
-        ({term: SI}), ``gm`` ([{"sigma": rad/s, "tau": s}]), ``J``, ``dof``, ``p_value``.
     """
 
     terms: list
@@ -168,32 +147,14 @@ class NoiseModel:
     stated: bool = False
     alpha: float = 0.01
     model_error: float = 0.001
-    alternative: dict | None = None
 
     def term(self, name: str) -> ModelTerm:
-        """The term ``name``: ``"Q"``, ``"N"``, ``"B"``, ``"K"``, ``"R"``; ``"GM"`` the first
-        Gauss-Markov term by correlation time (the further one's bound when the model holds
-        none); ``"GM1"``, ``"GM2"``, ... each Gauss-Markov term by correlation time, the
-        model's first, then the further one's bound."""
-        key = str(name).strip().upper()
-        if key in LINEAR_TERMS:
-            return next(t for t in self.terms if t.term == key)
-        gms = [t for t in self.terms if t.term == "GM"]
-        if key == "GM" and gms:
-            return gms[0]
-        if key.startswith("GM") and key[2:].isdigit() and 1 <= int(key[2:]) <= len(gms):
-            return gms[int(key[2:]) - 1]
-        names = list(LINEAR_TERMS) + [f"GM{i + 1}" for i in range(len(gms))] + \
-            (["GM"] if gms else [])
-        raise KeyError(f"term: no term {name!r} in this model; expected one of "
-                       f"{', '.join(names)}")
+        """The term ``"Q"``, ``"N"``, ``"B"``, ``"K"``, ``"R"`` (GM terms: ``gm_terms``)."""
+        return next(t for t in self.terms if t.term == name)
 
     @property
     def gm_terms(self) -> list:
-        """The Gauss-Markov terms of the model, by correlation time (the further term's bound,
-        outside the model, is ``term("GM")`` when the model holds none, else the last
-        ``GM<i>``)."""
-        return [t for t in self.terms if t.term == "GM" and t.in_model]
+        return [t for t in self.terms if t.term == "GM"]
 
     @property
     def identified(self) -> list:
@@ -262,44 +223,13 @@ class NoiseModel:
         return out
 
     def to_datasheet(self) -> dict:
-        """The whole model in datasheet units, a JSON-ready dict of this shape (version
-        ``fogcomp.noise._result.DATASHEET_VERSION``; a reader checks ``format`` and ``version`` first: version 1
-        had neither key, no ``name`` per term, no ``alternative``)::
-
-            {"format": "fogcomp.noise datasheet", "version": 2,
-             "model": "N + GM",            # the identified terms, as a model= string
-             "stated": bool, "ci": float,  # the intervals' probability content
-             "terms": [                    # Q, N, B, K, R, then the Gauss-Markov terms
-                 {"name": "N" | ... | "GM1" | ..., "term": "N" | ... | "GM",
-                  "status": "identified" | "upper bound" | "not identified",
-                  "<key>": value, "<key>_low", "<key>_high", "<key>_sigma", "<key>_bound95",
-                  "in_model": bool, "reason": str,
-                  # GM only: "gm_tau_s", "gm_tau_low_s", "gm_tau_high_s", and for the
-                  # further term outside the model "gm_bound95_by_tau": [{"tau_s",
-                  # "gm_sigma_dph"}]; "record_s_for_10pct" where predicted
-                 }, ...],
-             "alternative": None | {"model", "J", "dof", "p_value",
-                                    "terms": {key: value}, "gm": [{"gm_sigma_dph",
-                                    "gm_tau_s"}]},
-             "floor_reading": {"bias_instability_dph", "bias_instability_sigma_dph", "tau_s",
-                               "convention", "reason"},
-             "fit": {"J", "dof", "p_value", "scale", "alpha", "model_error"},
-             "selection": [str, ...]}
-
-        ``<key>`` is the term's datasheet key with its unit (``fogcomp.noise._result.DATASHEET``:
-        ``arw_deg_rt_h``, ``bias_instability_dph``, ``rrw_dph_rt_h``, ``quantisation_arcsec``,
-        ``rate_ramp_dph_per_h``, ``gm_sigma_dph``)."""
+        """The whole model in datasheet units: ``terms`` (:meth:`ModelTerm.to_datasheet` each),
+        ``floor_reading`` (deg/h), the fit's ``J``, ``dof``, ``p_value``, ``scale`` and the
+        ``selection`` steps."""
         fr = self.floor_reading
-        terms = []
-        for t in self.terms:
-            name = t.term
-            if t.term == "GM":
-                name = f"GM{sum(1 for x in terms if x['term'] == 'GM') + 1}"
-            terms.append({"name": name, **t.to_datasheet()})
         return {
-            "format": "fogcomp.noise datasheet", "version": DATASHEET_VERSION,
             "model": self.spec(), "stated": self.stated, "ci": self.ci,
-            "terms": terms, "alternative": self._alternative_datasheet(),
+            "terms": [t.to_datasheet() for t in self.terms],
             "floor_reading": {
                 "bias_instability_dph": None if fr.get("value") is None else fr["value"] / DPH,
                 "bias_instability_sigma_dph": None if fr.get("sigma") is None
@@ -310,16 +240,6 @@ class NoiseModel:
                     "alpha": self.alpha, "model_error": self.model_error},
             "selection": list(self.selection),
         }
-
-    def _alternative_datasheet(self) -> dict | None:
-        a = self.alternative
-        if a is None:
-            return None
-        return {"model": a["model"], "J": a["J"], "dof": a["dof"], "p_value": a["p_value"],
-                "terms": {DATASHEET[k][1]: v / DATASHEET[k][0]
-                          for k, v in a["coefficients"].items()},
-                "gm": [{"gm_sigma_dph": g["sigma"] / DPH, "gm_tau_s": g["tau"]}
-                       for g in a["gm"]]}
 
     def datasheet_values(self) -> dict:
         """The flat ``{key: value}`` of the identified IEEE terms in datasheet units (None where

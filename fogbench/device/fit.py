@@ -354,11 +354,9 @@ def _g_correction(fit: DeviceFit, static: list, mp, mp_name):
 def _t_correction(fit: DeviceFit, static: list, thermal, ci: float):
     """(the temperature terms at each static log's temperature, rad/s; their common standard
     deviation, deg/h; the bias source's words) and the note that says it."""
-    from fogbench.device.thermal import T_REF_C
+    from fogbench.device.thermal import T_REF_C, combination
 
     name, th = thermal
-    from fogbench.device.thermal import combination
-
     parts = [thermal_at(th, log.temp, ci) for log in static]
     t_corr = [v * DPH for v, _ in parts]
     # the bias is the logs' mean: its error from the terms is that of their mean correction,

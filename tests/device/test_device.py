@@ -445,18 +445,10 @@ def test_resume_after_the_device_file_was_edited_names_the_device_file(tmp_path)
 
 # ---------------------------------------------------------------------------------------------
 # thermal
-def _thermal_program():
-    from sim.thermal import ThermalHold, ThermalProgram, ThermalRamp
-
-    return ThermalProgram(start=20.0, steps=(
-        ThermalHold(1800.0), ThermalRamp(40.0, 0.5 / 60), ThermalHold(3600.0),
-        ThermalRamp(0.0, 0.5 / 60), ThermalHold(3600.0), ThermalRamp(20.0, 0.5 / 60),
-        ThermalHold(1800.0)))
-
-
 def _thermal_run(name: str, fs: float, seed: int):
     """A static log (2 h) and a thermal run (20 -> 40 -> 0 -> 20 deg C at 0.5 deg C/min, 6.3 h)
     of a preset: its noise and temperature terms, its thermal build and sensor."""
+    from fogbench.bench.joint import _thermal_program
     from fogbench.bench.noise import _noise_only
     from fogbench.device.thermal import ThermalLog
     from fogbench.scenario.device_file import _fog

@@ -12,8 +12,9 @@ compensator of the error model can beat without also filtering the signal). A me
 from __future__ import annotations
 
 import contextlib
-
+import copy
 import dataclasses
+import hashlib
 import json
 import math
 import time
@@ -340,9 +341,55 @@ def _score_fit(model, rec: dict, items: list[Scored], label: str, first: bool,
             it.seed_metrics.setdefault(label, []).append(m)
 
 
+def _fit_key(ms, seed, piece: Piece) -> tuple:
+    """What decides a fit: the method, its parameters, its seed and the bytes it is handed (the
+    record's inputs and the reference rate). Two protocols whose fits share a key (a lab
+    protocol and its ideal-lab twin where the lab's reference equals the truth, as on a static
+    table) get one fit: the second is the first's, not a new draw. A method of fogcomp's own is
+    keyed by the inputs its ``requires`` names (the only ones its code reads: a temperature
+    model is not refitted because the lab's specific force differs from the truth's in the
+    last bit); a plug-in by all of them."""
+    h = hashlib.blake2b(digest_size=16)
+    g = piece.gyro()
+    ref = piece.truth if piece.ref is None else piece.ref
+    cls = fogcomp.get_method(ms.name)
+    names = ("g", "temp", "temp_rate")
+    if cls.__module__.startswith("fogcomp."):
+        names = tuple(n for n in names if n in cls.requires)
+    for a in (g.rate, ref, *(getattr(g, n) for n in names)):
+        if a is None:
+            h.update(b"-")
+            continue
+        a = np.ascontiguousarray(a)
+        h.update(f"{a.dtype.str}{a.shape}".encode())
+        h.update(a.tobytes())
+    h.update(repr(float(g.fs)).encode())
+    params = json.dumps(json_ready(ms.params), sort_keys=True, default=repr)
+    return ms.name, params, seed, h.hexdigest()
+
+
+def _reuse(entry) -> tuple | None:
+    """A copy of an earlier fit (record, model) with the same key, or None (none, or a model
+    that cannot be copied: then it is fitted again)."""
+    if entry is None:
+        return None
+    first, rec, model = entry
+    try:
+        model = copy.deepcopy(model)
+    except Exception:   # a plug-in's model that does not copy: fit it again
+        return None
+    rec = copy.deepcopy(rec)
+    rec["fit_reused_from"] = first
+    return rec, model
+
+
 def _run_protocol(prot, sc, plan, data: dict, axis_j: int, lab_refs: dict, replicate: int,
-                  method_seeds: int, say) -> tuple[list[Scored], dict]:
-    """One protocol: (its scored pieces, label -> fit records) over its (fit, score) pairings."""
+                  method_seeds: int, say, fitted: dict | None = None
+                  ) -> tuple[list[Scored], dict]:
+    """One protocol: (its scored pieces, label -> fit records) over its (fit, score) pairings.
+    ``fitted`` (fit key -> (protocol, record, model)) carries fits across protocols:
+    :func:`_fit_key`."""
+    fitted = {} if fitted is None else fitted
     scored: list[Scored] = []
     fits: dict = {m.label: [] for m in plan.methods}
     for fit_sel, score_sel in expand(prot, sc):
@@ -359,8 +406,14 @@ def _run_protocol(prot, sc, plan, data: dict, axis_j: int, lab_refs: dict, repli
             for k in range(method_seeds if seeded else 1):
                 seed = method_seed(sc, plan, prot, ms, fit_sel, replicate, k) if seeded \
                     else None
-                rec, model = _fit(ms, seed, fit_piece, fit_sel, score_sel,
-                                  plan.fit_timeout_s)
+                key = _fit_key(ms, seed, fit_piece)
+                reused = _reuse(fitted.get(key))
+                if reused is not None:
+                    rec, model = reused
+                else:
+                    rec, model = _fit(ms, seed, fit_piece, fit_sel, score_sel,
+                                      plan.fit_timeout_s)
+                    fitted[key] = (prot.name, rec, model)
                 _score_fit(model, rec, items, ms.label, k == 0, seeded and method_seeds > 1,
                            data, axis_j, plan.fit_timeout_s)
                 if k == 0:
@@ -393,9 +446,10 @@ def run_scenario(path, progress=None, methods: list[str] | None = None, replicat
     lab_refs = _lab_references(sc, plan, data, seeds)
     scored: list[Scored] = []
     fits: dict = {}
+    fitted: dict = {}
     for prot in plan.protocols:
         prot_scored, fits[prot.name] = _run_protocol(prot, sc, plan, data, axis_j, lab_refs,
-                                                     replicate, method_seeds, say)
+                                                     replicate, method_seeds, say, fitted)
         scored.extend(prot_scored)
 
     metrics = _metrics_doc(sc, plan, data, scored, fits, time.monotonic() - t_start)

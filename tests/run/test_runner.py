@@ -300,3 +300,90 @@ def test_claim_verdicts_state_agreement_with_the_numbers():
                                                      "raw", 80.0, None),))
     (v,) = claim_verdicts(plan, doc)
     assert "this one draw outside it" in v and "claim 80.. %" in v and "**inconclusive**" in v
+
+
+STATIC_THERMAL = """
+[scenario]
+name = "static_thermal"
+description = "a static FOG through a short ramp: the lab's reference is the truth"
+sample_rate_hz = 1.0
+
+[fog]
+preset = "paper002_fog"
+axes = ["z"]
+
+[thermal]
+start_c = 20.0
+steps = [{ ramp_to_c = 30.0, rate_c_per_min = 1.0 }, { hold_s = 300.0 }]
+
+[[runs]]
+name = "fit"
+seed = 1
+[[runs.motion]]
+type = "hold"
+duration_s = 900.0
+
+[[runs]]
+name = "test"
+seed = 2
+[[runs.motion]]
+type = "hold"
+duration_s = 900.0
+
+[compensation]
+axis = "z"
+
+[[protocols]]
+name = "held_out"
+fit = ["fit"]
+score = ["test"]
+
+[[methods]]
+name = "bp"
+params = { max_epochs = 30 }
+
+[[methods]]
+name = "poly_temp"
+
+[[methods]]
+name = "model_lstsq"
+params = { terms = ["bias", "temp"] }
+"""
+
+
+def _numbers_differ(a, b, path=""):
+    """Paths where two metrics documents differ, timings left out."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        return [d for k in set(a) | set(b)
+                if not any(w in k for w in ("time", "per_s", "wall", "fit_reused_from"))
+                for d in _numbers_differ(a.get(k), b.get(k), f"{path}/{k}")]
+    if isinstance(a, list) and isinstance(b, list) and len(a) == len(b):
+        return [d for i, (x, y) in enumerate(zip(a, b)) for d in _numbers_differ(x, y, f"{path}[{i}]")]
+    same = a == b or (isinstance(a, float) and isinstance(b, float) and np.isnan(a) and np.isnan(b))
+    return [] if same else [path]
+
+
+def test_an_ideal_twin_fitted_on_the_same_bytes_reuses_the_fit_and_scores_as_a_refit(
+        tmp_path, monkeypatch):
+    """Issue 43: on a static table the lab's reference is the truth, so a protocol and its
+    ideal-lab twin hand each method the same samples and the same seed; the twin takes the
+    first fit (said in its record) and every metric is what fitting it again gives."""
+    import fogbench.run.runner as R
+
+    p = tmp_path / "static_thermal.toml"
+    p.write_text(STATIC_THERMAL)
+    reused = R.run_scenario(str(p), replicate=1, method_seeds=2)
+    assert set(reused.fits) == {"held_out", "held_out.ideal"}
+    for label in ("bp", "poly_temp"):
+        assert "fit_reused_from" not in reused.fits["held_out"][label][0]
+        assert reused.fits["held_out.ideal"][label][0]["fit_reused_from"] == "held_out"
+    # model_lstsq reads the specific force, which the lab computes and the truth simulates
+    # (they differ in the last bits): fitted again
+    assert "fit_reused_from" not in reused.fits["held_out.ideal"]["model_lstsq"][0]
+    monkeypatch.setattr(R, "_reuse", lambda entry: None)
+    refit = R.run_scenario(str(p), replicate=1, method_seeds=2)
+    assert "fit_reused_from" not in refit.fits["held_out.ideal"]["bp"][0]
+    # the two runs' metrics are the same numbers, the bp seeds' included
+    assert _numbers_differ(reused.metrics, refit.metrics) == []
+    ideal = [s for s in reused.scored if s.protocol == "held_out.ideal"][0]
+    assert len(ideal.seed_metrics["bp"]) == 2

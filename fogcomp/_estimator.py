@@ -137,20 +137,32 @@ class Compensator:
         -------
         self
         """
-        self._check_data(data, "fit")
-        error = None
-        if self.supervised:
-            if reference_rate is None:
-                raise ValueError(f"{self.name}: fit needs reference_rate (rad/s), the rate the rig "
-                                 "applied, to learn the error = rate - reference_rate")
-            ref = _as_float_array("reference_rate", reference_rate, ndim=1)
-            if ref.shape[0] != len(data):
-                raise ValueError(f"reference_rate: length must be {len(data)} to match rate, "
-                                 f"got {ref.shape[0]}")
-            error = data.rate - ref
-        self._fit(data, error)
+        self._fit(data, self._error_of(data, reference_rate))
         self.fitted_ = True
         return self
+
+    @classmethod
+    def fit_starts(cls, models: list, data: GyroData,
+                   reference_rate: np.ndarray | None = None) -> list:
+        """Fit several models of this class that differ only in ``random_state`` (the starts of
+        a random method) on the same data: per model, in order, ``(exception or None, the
+        warnings it raised)``. This one fits them one by one; a method whose starts can be
+        trained together overrides it with the same results, to rounding (``fogcomp.methods.
+        temperature.Bp``: issue 43). An exception that is not an ``Exception`` (a time limit,
+        Ctrl-C) ends the whole call."""
+        import warnings
+
+        out = []
+        for model in models:
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                try:
+                    model.fit(data, reference_rate)
+                    err = None
+                except Exception as exc:    # noqa: BLE001 - each start's failure is its own
+                    err = exc
+            out.append((err, list(caught)))
+        return out
 
     def estimate_error(self, data: GyroData) -> np.ndarray:
         """The estimated error of ``data.rate``, shape (n,), rad/s."""
@@ -173,6 +185,21 @@ class Compensator:
         save_model(self, path)
 
     # -- helpers for subclasses ----------------------------------------------------------------
+    def _error_of(self, data: GyroData, reference_rate) -> np.ndarray | None:
+        """The checks of :meth:`fit` and the error a supervised method learns, ``rate -
+        reference_rate`` (None for an unsupervised one)."""
+        self._check_data(data, "fit")
+        if not self.supervised:
+            return None
+        if reference_rate is None:
+            raise ValueError(f"{self.name}: fit needs reference_rate (rad/s), the rate the rig "
+                             "applied, to learn the error = rate - reference_rate")
+        ref = _as_float_array("reference_rate", reference_rate, ndim=1)
+        if ref.shape[0] != len(data):
+            raise ValueError(f"reference_rate: length must be {len(data)} to match rate, "
+                             f"got {ref.shape[0]}")
+        return data.rate - ref
+
     def _rng(self) -> np.random.Generator:
         rs = getattr(self, "random_state", None)
         if isinstance(rs, np.random.Generator):

@@ -403,17 +403,18 @@ def _run_protocol(prot, sc, plan, data: dict, axis_j: int, lab_refs: dict, repli
             say(f"{prot.name}: fit {ms.label} on {', '.join(s.describe() for s in fit_sel)}")
             seeded = ms.failed is None and fogcomp.get_method(ms.name).random and \
                 ms.params.get("random_state") is None
-            for k in range(method_seeds if seeded else 1):
-                seed = method_seed(sc, plan, prot, ms, fit_sel, replicate, k) if seeded \
-                    else None
-                key = _fit_key(ms, seed, fit_piece)
-                reused = _reuse(fitted.get(key))
-                if reused is not None:
-                    rec, model = reused
-                else:
-                    rec, model = _fit(ms, seed, fit_piece, fit_sel, score_sel,
-                                      plan.fit_timeout_s)
-                    fitted[key] = (prot.name, rec, model)
+            seeds = [method_seed(sc, plan, prot, ms, fit_sel, replicate, k) if seeded else None
+                     for k in range(method_seeds if seeded else 1)]
+            keys = [_fit_key(ms, seed, fit_piece) for seed in seeds]
+            done = [_reuse(fitted.get(key)) for key in keys]
+            new = [k for k, d in enumerate(done) if d is None]
+            if new:
+                made = _fit_many(ms, [seeds[k] for k in new], fit_piece, fit_sel, score_sel,
+                                 plan.fit_timeout_s)
+                for k, (rec, model) in zip(new, made):
+                    done[k] = rec, model
+                    fitted[keys[k]] = (prot.name, rec, model)
+            for k, (rec, model) in enumerate(done):
                 _score_fit(model, rec, items, ms.label, k == 0, seeded and method_seeds > 1,
                            data, axis_j, plan.fit_timeout_s)
                 if k == 0:
@@ -577,46 +578,91 @@ def _guarded(what: str, timeout_s: float | None):
 
 def _fit(ms, seed, fit_piece: Piece, fit_sel, score_sel, timeout_s: float | None = None):
     """Make and fit one method; a failure is recorded (rec["status"]), never raised."""
-    rec = {"fit_on": [s.describe() for s in fit_sel],
-           "scored_on": [s.describe() for s in score_sel]}
-    if seed is not None:
-        rec["random_state"] = seed
+    return _fit_many(ms, [seed], fit_piece, fit_sel, score_sel, timeout_s)[0]
+
+
+def _fit_many(ms, seeds: list, fit_piece: Piece, fit_sel, score_sel,
+              timeout_s: float | None = None) -> list:
+    """Make and fit one method at each seed (a random method's starts, None for one fit of a
+    deterministic method): [(record, model or None)], a failure recorded, never raised. Two
+    or more starts go to the method's ``fit_starts`` (trained together where the method can:
+    the same models as one by one); the time limit then holds for each start on average
+    (K times ``timeout_s`` for the K), and each record's ``fit_time_s`` is the call's time over
+    K."""
+    recs = []
+    for seed in seeds:
+        rec = {"fit_on": [s.describe() for s in fit_sel],
+               "scored_on": [s.describe() for s in score_sel]}
+        if seed is not None:
+            rec["random_state"] = seed
+        recs.append(rec)
     if getattr(ms, "failed", None):
-        rec.update(status="failed", error=ms.failed, warnings=[])
-        return rec, None
-    model = None
+        for rec in recs:
+            rec.update(status="failed", error=ms.failed, warnings=[])
+        return [(rec, None) for rec in recs]
+    K = len(seeds)
+    outcomes, models = None, [None] * K
+    label = f"{ms.label}: fit" + (f" ({K} starts)" if K > 1 else "")
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            with _guarded(f"{ms.label}: fit", timeout_s):
-                model = fogcomp.make_method(ms.name, **ms.params)
-                if seed is not None:
-                    model.random_state = seed
+            with _guarded(label, None if timeout_s is None else timeout_s * K):
+                models = [fogcomp.make_method(ms.name, **ms.params) for _ in seeds]
+                for model, seed in zip(models, seeds):
+                    if seed is not None:
+                        model.random_state = seed
+                ref = fit_piece.truth if fit_piece.ref is None else fit_piece.ref
                 t0 = time.perf_counter()
-                model.fit(fit_piece.gyro(),
-                          fit_piece.truth if fit_piece.ref is None else fit_piece.ref)
-                rec["fit_time_s"] = time.perf_counter() - t0
-            rec["status"] = "ok"
+                if K == 1:
+                    models[0].fit(fit_piece.gyro(), ref)
+                    outcomes = [(None, [])]
+                else:
+                    outcomes = type(models[0]).fit_starts(models, fit_piece.gyro(), ref)
+                dt = (time.perf_counter() - t0) / K
         except _METHOD_FAILURES as exc:  # any failure of a method is reported, not fatal
-            rec["status"] = "failed"
-            rec["error"] = f"{type(exc).__name__}: {exc}"
-            rec["traceback"] = traceback.format_exc(limit=3)
+            error = f"{type(exc).__name__}: {exc}"
+            tb = traceback.format_exc(limit=3)
+            outcomes = None
+    shared = [f"{w.category.__name__}: {w.message}" for w in caught]
+    out = []
+    for k, rec in enumerate(recs):
+        if outcomes is None:
+            rec.update(status="failed", error=error, traceback=tb)
             model = None
-        rec["warnings"] = sorted({f"{w.category.__name__}: {w.message}" for w in caught})
-    if model is not None:
-        try:    # what a method learned, as far as it has the usual attributes (a plug-in may not)
-            rec["coefficients"] = _coef_record(model)
-            rec["identifiability"] = _ident_record(model)
-            for attr in ("level_", "n_iter_", "n_epochs_", "initial_loss_"):
-                if hasattr(model, attr):
-                    v = getattr(model, attr)
-                    rec[attr.rstrip("_")] = v if isinstance(v, (int, str)) else float(v)
-            if hasattr(model, "loss_curve_"):
-                rec["loss_curve"] = [float(x) for x in np.asarray(model.loss_curve_)]
-        except _METHOD_FAILURES as exc:
-            rec["warnings"].append(f"its learned attributes could not be recorded "
-                                   f"({type(exc).__name__}: {exc})")
-    return rec, model
+            own = []
+        else:
+            exc, own = outcomes[k]
+            own = [f"{w.category.__name__}: {w.message}" for w in own]
+            model = models[k]
+            if exc is None:
+                rec["status"] = "ok"
+                rec["fit_time_s"] = dt
+            else:
+                rec.update(status="failed", error=f"{type(exc).__name__}: {exc}",
+                           traceback="".join(traceback.format_exception(exc, limit=3)))
+                model = None
+        rec["warnings"] = sorted(set(shared + own))
+        if model is not None:
+            _learned(rec, model)
+        out.append((rec, model))
+    return out
+
+
+def _learned(rec: dict, model) -> None:
+    """What a method learned, into its fit record, as far as it has the usual attributes (a
+    plug-in may not)."""
+    try:
+        rec["coefficients"] = _coef_record(model)
+        rec["identifiability"] = _ident_record(model)
+        for attr in ("level_", "n_iter_", "n_epochs_", "initial_loss_"):
+            if hasattr(model, attr):
+                v = getattr(model, attr)
+                rec[attr.rstrip("_")] = v if isinstance(v, (int, str)) else float(v)
+        if hasattr(model, "loss_curve_"):
+            rec["loss_curve"] = [float(x) for x in np.asarray(model.loss_curve_)]
+    except _METHOD_FAILURES as exc:
+        rec["warnings"].append(f"its learned attributes could not be recorded "
+                               f"({type(exc).__name__}: {exc})")
 
 
 def _score_model(model, rec: dict, it: "Scored", rd: RunData, axis_j: int,

@@ -255,6 +255,62 @@ def _loss_grad_t(theta, xT, t, H):
     return loss, np.concatenate([gW1.ravel(), gb1, gW2, [gb2]])
 
 
+def _train_gd_many(thetas, x, t, H: int, lr: float, goal: float, max_epochs: int, dtype):
+    """K gradient descents on the same data as one array program: per start ``(theta,
+    losses, stop, diverged_at)``, each what :meth:`Bp._train`'s loop gives from its row of
+    ``thetas`` (K, P): the same epochs, the same stop at the goal or the epoch limit, the same
+    divergence check (``diverged_at``: that epoch, losses ending with the bad MSE; else None).
+    The network runs in ``dtype`` over the starts still descending; each start's MSE is
+    summed in float64 as in :func:`_loss_grad_t`. Differs from the one-start loop only in the
+    order float32 sums run (a batched product instead of a matrix-vector one)."""
+    xT = np.ascontiguousarray(np.asarray(x).T, dtype=dtype)
+    t = np.asarray(t, dtype=dtype)
+    theta = np.array(thetas, dtype=float, ndmin=2)
+    K, P = theta.shape
+    m, n = xT.shape
+    iw, ib, iv = H * m, H * m + H, H * m + 2 * H
+    losses: list[list[float]] = [[] for _ in range(K)]
+    result: list = [None] * K
+    live = np.arange(K)
+    for epoch in range(int(max_epochs) + 1):
+        th = theta[live].astype(dtype)
+        h = th[:, :iw].reshape(-1, H, m) @ xT                 # (A, H, n)
+        h += th[:, iw:ib, None]
+        np.tanh(h, out=h)
+        W2 = th[:, ib:iv]
+        e = (W2[:, None, :] @ h)[:, 0, :]                      # (A, n)
+        e += th[:, -1:] - t
+        e64 = e.astype(np.float64)
+        dy = e * (2.0 / n)
+        gW2 = (h @ dy[:, :, None])[:, :, 0]
+        gb2 = dy.sum(axis=1)
+        h *= h
+        np.subtract(1.0, h, out=h)
+        h *= dy[:, None, :]
+        gW1 = (h @ xT.T) * W2[:, :, None]
+        gb1 = h.sum(axis=2) * W2
+        grad = np.concatenate([gW1.reshape(len(live), -1), gb1, gW2, gb2[:, None]], axis=1)
+        keep = []
+        for a, k in enumerate(live):
+            loss = float(e64[a] @ e64[a]) / n
+            if not np.isfinite(loss) or (losses[k] and loss > _EXPLODE * losses[k][0]):
+                result[k] = (theta[k].copy(), losses[k] + [loss], "diverged", epoch)
+                continue
+            losses[k].append(loss)
+            if loss <= goal or epoch == max_epochs:
+                result[k] = (theta[k].copy(), losses[k], "goal" if loss <= goal else "epochs",
+                             None)
+                continue
+            keep.append(a)
+        if not keep:
+            break
+        keep = np.asarray(keep)
+        with np.errstate(over="ignore", invalid="ignore"):
+            theta[live[keep]] = theta[live[keep]] - lr * grad[keep]
+        live = live[keep]
+    return result
+
+
 #: MATLAB ``trainlm`` defaults (Neural Network Toolbox): initial mu, its decrease and increase
 #: factors, the mu at which training stops, and the gradient norm at which it stops.
 LM_MU, LM_MU_DEC, LM_MU_INC, LM_MU_MAX, LM_MIN_GRAD = 1e-3, 0.1, 10.0, 1e10, 1e-7
@@ -583,16 +639,72 @@ class Bp(Compensator):
         for epoch in range(self.max_epochs + 1):
             loss, grad = _loss_grad_t(theta, xT, t, H)
             if not np.isfinite(loss) or (losses and loss > _EXPLODE * losses[0]):
-                raise DivergenceError(
-                    f"{self.name}: gradient descent diverged at epoch {epoch} (MSE {loss:.3g}, "
-                    f"initial {losses[0] if losses else float('nan'):.3g}); lower learning_rate "
-                    f"(now {self.learning_rate!r})")
+                raise DivergenceError(self._diverged(epoch, loss, losses))
             losses.append(loss)
             if loss <= self.goal or epoch == self.max_epochs:
                 break
             with np.errstate(over="ignore", invalid="ignore"):
                 theta = theta - lr * grad
         self._set_trained(theta, losses, "goal" if losses[-1] <= self.goal else "epochs")
+
+    def _diverged(self, epoch: int, loss: float, losses: list) -> str:
+        return (f"{self.name}: gradient descent diverged at epoch {epoch} (MSE {loss:.3g}, "
+                f"initial {losses[0] if losses else float('nan'):.3g}); lower learning_rate "
+                f"(now {self.learning_rate!r})")
+
+    def _same_but_seed(self, other) -> bool:
+        keys = [k for k in self.get_params() if k != "random_state"]
+        return type(other) is type(self) and all(
+            repr(getattr(self, k)) == repr(getattr(other, k)) for k in keys)
+
+    @classmethod
+    def fit_starts(cls, models: list, data: GyroData, reference_rate=None) -> list:
+        """Gradient-descent starts trained together (issue 43): each start's checks,
+        normalisation and initial weights (its ant colony or random search) as in :meth:`fit`,
+        then the K descents as one array program (:func:`_train_gd_many`: the same epochs,
+        stops and divergence checks as each start's own loop, to float32 rounding), then each
+        start's learned attributes and warnings. Levenberg-Marquardt starts, or starts whose
+        settings differ beyond their seed, are fitted one by one (an LM epoch is most of its
+        cost in its own 37 x 37 normal matrix: batching did not make it faster, measured)."""
+        import warnings
+
+        first = models[0] if models else None
+        if (len(models) < 2 or first.training != "gd"
+                or not all(first._same_but_seed(m) for m in models)):
+            return super().fit_starts(models, data, reference_rate)
+        out: list = [None] * len(models)
+        ready = []          # (index, x, t, theta0, warnings so far)
+        for i, model in enumerate(models):
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                try:
+                    error = model._error_of(data, reference_rate)
+                    model._validate()
+                    rng = model._rng()
+                    x, t = model._prepare(data, error)
+                    ready.append((i, x, t, model._initial_params(x, t, rng)))
+                except Exception as exc:   # noqa: BLE001 - each start's failure is its own
+                    out[i] = (exc, list(caught))
+                    continue
+            ready[-1] = ready[-1] + (list(caught),)
+        if ready:
+            _, x, t, _, _ = ready[0]
+            results = _train_gd_many(np.array([r[3] for r in ready]), x, t, first.hidden_size,
+                                     float(first.learning_rate), first.goal, first.max_epochs,
+                                     first._dtype())
+            for (i, _, _, _, earlier), (theta, losses, stop, bad) in zip(ready, results):
+                model = models[i]
+                with warnings.catch_warnings(record=True) as caught:
+                    warnings.simplefilter("always")
+                    if bad is not None:
+                        out[i] = (DivergenceError(model._diverged(bad, losses[-1] if losses
+                                                                  else np.nan, losses[:-1])),
+                                  earlier)
+                        continue
+                    model._set_trained(theta, losses, stop)
+                    model.fitted_ = True
+                out[i] = (None, earlier + list(caught))
+        return out
 
     def _dtype(self):
         return np.float32 if self.precision == "float32" else np.float64

@@ -241,7 +241,7 @@ class NoiseModel:
 
         ``"Q"``, ``"N"``, ``"B"``, ``"K"``, ``"R"``: the IEEE terms, always there.
         ``"GM1"``, ``"GM2"``, ...: the model's Gauss-Markov terms by correlation time, then the
-        further one outside the model (its bound), as :attr:`terms` lists them.
+        further one outside the model (its bound), as ``terms`` lists them.
         ``"GM"``: the Gauss-Markov term when that is unambiguous: the model's only one, or
         the further term's bound when the model holds none; a model with several raises
         (name one of them).
@@ -275,7 +275,7 @@ class NoiseModel:
     @property
     def gm_terms(self) -> list:
         """The Gauss-Markov terms of the fitted model, by correlation time (a further term's
-        bound, outside the model, is not among them: :attr:`terms`, :meth:`term`)."""
+        bound, outside the model, is not among them: ``terms``, :meth:`term`)."""
         return [t for t in self.terms if t.term == "GM" and t.in_model]
 
     @property
@@ -346,7 +346,7 @@ class NoiseModel:
 
     def to_datasheet(self) -> Datasheet:
         """The whole model in datasheet units: a JSON-ready dict of this shape, version
-        :data:`DATASHEET_VERSION` (2)::
+        ``DATASHEET_VERSION`` (2)::
 
             {"format": "fogcomp.noise datasheet", "version": 2,
              "model": "N + GM",             # the identified terms, as a model= string
@@ -368,7 +368,7 @@ class NoiseModel:
              "fit": {"J", "dof", "p_value", "scale", "alpha", "model_error"},
              "selection": [str, ...]}
 
-        ``<k>`` is the term's datasheet key with its unit (:data:`DATASHEET`:
+        ``<k>`` is the term's datasheet key with its unit (``DATASHEET``:
         ``quantisation_arcsec``, ``arw_deg_rt_h``, ``bias_instability_dph``, ``rrw_dph_rt_h``,
         ``rate_ramp_dph_per_h``, ``gm_sigma_dph``); a value the record does not give is None.
         The statuses are :class:`ModelTerm`'s.

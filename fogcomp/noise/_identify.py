@@ -48,7 +48,9 @@ def identify_noise_model(taus, avar, fs: float, n, *, model=None, ci: float | No
         Level of the selection tests (default 0.01: a term absent from the record enters the
         model in about 1 % of records).
     max_gm : int, optional
-        Most Gauss-Markov terms tried (default 3).
+        Most Gauss-Markov terms tried (default 3); a model that holds fewer (selected or
+        stated) reports a further one outside it by its upper bound at the correlation times
+        the record can see (0: no Gauss-Markov candidate, none reported).
     model_error : float, optional
         Relative uncertainty of each Allan variance point added to the statistical one (default
         0.001): the model's own approximations (the flicker floor is flat only well above its
@@ -256,7 +258,12 @@ def _model_terms(r: _Report, weak: dict, log: list, max_gm: int) -> list:
         if term not in terms:
             terms[term] = _left_out_term(r, term, log)
     if len(gms) < max_gm:
-        gms.append(_gm_bound_term(r))
+        try:
+            gms.append(_gm_bound_term(r))
+        except (np.linalg.LinAlgError, ValueError) as e:
+            gms.append(ModelTerm("GM", "not identified", None, None, None, None,
+                                 f"a further Gauss-Markov term: its bound could not be "
+                                 f"computed ({e})"))
     return [replace(terms[x], key=x) for x in LINEAR_TERMS] + \
         [replace(g, key=f"GM{i + 1}") for i, g in enumerate(gms)]
 

@@ -152,8 +152,8 @@ def test_a_weak_term_kept_in_the_model_reports_a_bound_not_an_interval():
     assert seen >= 1
 
 
-def test_the_law_holds_on_records_of_white_noise_and_a_weak_gauss_markov_term():
-    for m in _weak_gm_models():
+def test_the_law_holds_on_records_of_white_noise_and_a_weak_gauss_markov_term(weak_models):
+    for m in weak_models:
         _law(m)
 
 

@@ -21,6 +21,8 @@ curve, model = allan_analysis(rate_rad_s, fs=100.0)   # AllanCI, fogcomp.noise.N
 arw = model.term("N")
 print(model.spec(), arw.value, arw.low, arw.high)      # N in rad/sqrt(s)
 print(model.to_datasheet()["terms"][1])                # N in datasheet units
+gm = model.term("GM")            # the Gauss-Markov term; not selected here: its 95 % bound
+print(gm.status, gm.bound_by_tau[:3])                  # (T s, sigma bound rad/s) per T
 print(model.filter_parameters()[0])                    # what a Kalman filter needs, SI
 
 # the six-position + three-rotation triad calibration of a raw session

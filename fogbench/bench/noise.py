@@ -147,14 +147,18 @@ def _term_rows(models, co, gm, identified_only: bool):
         est = [t for t in vals if t.value is not None
                and (t.status == "identified" or not identified_only)]
         err = [t.value / want - 1 for t in est]
-        cover = [t.low <= want <= (t.high if t.high is not None else math.inf) for t in est]
+        # a term the record does not show has its bound, no interval: [0, bound] then
+        cover = [(t.low if t.low is not None else 0.0) <= want <=
+                 (t.high if t.high is not None else t.bound if t.status == "upper bound"
+                  and t.bound is not None else math.inf) for t in est]
         rows.append((k, sum(t.status == "identified" for t in vals), err, cover))
     for g, (sigma, T) in enumerate(gm):
         found = [min(m.gm_terms, key=lambda x: abs(math.log(x.tau / T))) if m.gm_terms else None
                  for m in models]
         est = [x for x in found if x is not None]
         rows.append((f"GM{g} sigma", len(est), [x.value / sigma - 1 for x in est],
-                     [x.low <= sigma <= (x.high or math.inf) for x in est]))
+                     [(x.low or 0.0) <= sigma <= (x.high or x.bound or math.inf)
+                      for x in est]))
         rows.append((f"GM{g} tau", len(est), [x.tau / T - 1 for x in est],
                      [x.tau_low <= T <= x.tau_high for x in est]))
     return rows

@@ -411,6 +411,8 @@ def _thermal_noise(model, fs: float):
 
     kw = dict(arw=val("N"), bias_instability=val("B"), rrw=val("K"),
               quantization=val("Q") * math.sqrt(12.0), bi_band=(1e-6, min(BAND_HIGH_HZ, fs / 2)))
+    # the error model (sim.fog.FogParams) holds one Gauss-Markov term: the largest sigma, as
+    # the device file does (_noise_entries, GM_RULE)
     gms = sorted((t for t in model.gm_terms if t.status == "identified"), key=lambda t: -t.value)
     if gms:
         kw.update(gm_drift=gms[0].value, gm_time_constant=gms[0].tau)
@@ -603,6 +605,12 @@ def _z(ci: float) -> float:
     return float(norm.ppf(0.5 + ci / 2))
 
 
+#: Which Gauss-Markov term a device file takes when the record shows several: the file's
+#: error model (``sim.fog.FogParams``: ``gm_drift_dps``, ``gm_time_constant_s``) holds one.
+GM_RULE = ("the device file's error model holds one Gauss-Markov term (gm_drift_dps, "
+           "gm_time_constant_s): it takes the one of largest sigma, the others are listed here")
+
+
 def _noise_entries(fit: DeviceFit, model, origin: str, fs: float) -> None:
     for term, (key, unit) in _NOISE_KEYS.items():
         t = model.term(term)
@@ -626,10 +634,11 @@ def _noise_entries(fit: DeviceFit, model, origin: str, fs: float) -> None:
     if gms:
         g = gms[0]
         fit.entries.append(Entry("gm_drift_dps", g.value / DPS, g.low / DPS, g.high / DPS,
-                                 f"the strongest Gauss-Markov term of {origin}"))
+                                 f"the Gauss-Markov term of {origin} of largest sigma"
+                                 + (f" ({GM_RULE})" if len(gms) > 1 else "")))
         fit.entries.append(Entry("gm_time_constant_s", g.tau, g.tau_low, g.tau_high,
                                  "its correlation time"))
-        for other in gms[1:]:
-            fit.notes.append(f"{origin} shows a further Gauss-Markov term ({other.value / DPH:.3g} "
-                             f"deg/h, {other.tau:.3g} s); the error model holds one, so it is "
-                             "left out of this file")
+        if len(gms) > 1:
+            fit.notes.append(f"{origin} shows {len(gms)} Gauss-Markov terms; {GM_RULE}; left "
+                             "out: " + "; ".join(f"{o.value / DPH:.3g} deg/h, tau {o.tau:.3g} "
+                                                 "s" for o in gms[1:]))

@@ -17,6 +17,12 @@ One value per sensor: the largest over the axes the log has (a filter that trust
 than it deserves diverges; the per-axis values are in the file's comments). A term the record
 does not show is written as its one-sided 95 % upper bound, and the comment says so.
 
+Neither tool's noise model has a Gauss-Markov state (Kalibr's is white noise and a random
+walk per sensor; OpenVINS reads the same four keys): the Gauss-Markov terms the record shows
+are written as comments, every one of every axis (sigma, correlation time and its interval;
+:func:`gm_terms`), with the discrete form in ``allan.json``'s ``filter`` entry, for a filter
+that carries them.
+
 Kalibr's wiki recommends inflating the values for "unmodelled effects" (its example multiplies
 the noise density by up to 10), and users of allan_variance_ros do the same because a static
 bench record misses vibration and temperature (allan_variance_ros, GitHub issue #44): ``--inflate-density``
@@ -100,9 +106,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["NoiseValue", "pick", "values_from_models", "kalibr_text", "openvins_text", "is_own",
-           "MARK", "TEXTS", "ToolIntrinsics", "intrinsics_from_ferraris", "kalibr_intrinsics_text",
-           "openvins_intrinsics_text", "INTRINSICS_TEXTS"]
+__all__ = ["NoiseValue", "pick", "values_from_models", "gm_terms", "kalibr_text",
+           "openvins_text", "is_own", "MARK", "TEXTS", "ToolIntrinsics",
+           "intrinsics_from_ferraris", "kalibr_intrinsics_text", "openvins_intrinsics_text",
+           "INTRINSICS_TEXTS"]
 
 MARK = "# written by fogbench "
 
@@ -124,9 +131,7 @@ def pick(models: dict, term: str) -> NoiseValue | None:
     not show the term, its 95 % upper bound; None when no axis gives either."""
     per = {}
     for ax, m in models.items():
-        t = next((t for t in m.terms if t.term == term), None)
-        if t is None:
-            continue
+        t = m.term(term)
         if t.status == "identified" and t.value is not None:
             per[ax] = (float(t.value), "identified")
         elif t.bound is not None:
@@ -150,7 +155,33 @@ def values_from_models(gyro: dict, acc: dict | None) -> dict:
             else:
                 out[sensor, term] = pick(models, term) or (
                     f"the record neither shows nor bounds {term}; fill it in")
+        if models is not None:
+            out[sensor, "GM"] = gm_terms(models)
     return out
+
+
+def gm_terms(models: dict) -> list:
+    """Every identified Gauss-Markov term of every axis (``{axis: NoiseModel}``): ``[(axis,
+    sigma SI, correlation time s, (its interval's low, high) s)]``, by axis then correlation
+    time. Neither tool's noise model holds them: the files list them all as comments."""
+    return [(ax, float(t.value), float(t.tau), (t.tau_low, t.tau_high))
+            for ax, m in models.items() for t in m.gm_terms if t.status == "identified"]
+
+
+def _gm_comments(values: dict) -> list:
+    """The comment lines of the Gauss-Markov terms in ``values`` (``(sensor, "GM")``)."""
+    lines = []
+    for sensor in ("gyroscope", "accelerometer"):
+        gms = values.get((sensor, "GM")) or []
+        if gms:
+            unit = "rad/s" if sensor == "gyroscope" else "m/s^2"
+            lines.append(f"{sensor}: {len(gms)} Gauss-Markov term(s) the record shows; this "
+                         "noise model has no state for them (white noise and a random walk "
+                         "only), so none is written as a key: a filter that carries them takes "
+                         "each sigma and tau (discrete form: allan.json's 'filter')")
+            lines += [f"  {ax}: sigma {sg:.6g} {unit}, tau {T:.6g} s (interval "
+                      f"{lo:.3g}..{hi:.3g} s)" for ax, sg, T, (lo, hi) in gms]
+    return lines
 
 
 _UNITS = {("gyroscope", "N"): "rad/s/sqrt(Hz)", ("gyroscope", "K"): "rad/s^2/sqrt(Hz)",
@@ -208,6 +239,7 @@ def kalibr_text(values: dict, fs: float, source: str, *, topic: str = "/imu0",
     for key, value, notes in _entries(values, inflate_density, inflate_walk):
         lines += [f"# {n}" for n in notes]
         lines.append(f"{key}: {_num9(value)}" if value is not None else f"# {key}:")
+    lines += [f"# {n}" for n in _gm_comments(values)]
     lines += [f"rostopic: {topic}", f"update_rate: {_num(fs)}"]
     return "\n".join(lines) + "\n"
 
@@ -225,6 +257,7 @@ def openvins_text(values: dict, fs: float, source: str, *,
     for key, value, notes in _entries(values, inflate_density, inflate_walk):
         lines += [f"  # {n}" for n in notes]
         lines.append(f"  {key}: {_num9(value)}" if value is not None else f"  # {key}:")
+    lines += [f"  # {n}" for n in _gm_comments(values)]
     ident = [f"    - [{', '.join('1.0' if i == j else '0.0' for j in range(3))}]"
              for i in range(3)]
     zero = ["    - [0.0, 0.0, 0.0]"] * 3
@@ -434,6 +467,7 @@ def _noise_lines(values: dict | None, indent: str) -> list[str]:
         out += [f"{indent}# {n}" for n in notes]
         if value is not None:
             out.append(f"{indent}{key}: {_num(value)}")
+    out += [f"{indent}# {n}" for n in _gm_comments(values)]
     return out
 
 

@@ -131,6 +131,8 @@ def figure(title: str, taus, adev, low, high, model, interval_label: str):
     slopes = {"Q": "-1", "N": "-1/2", "B": "0", "K": "+1/2", "R": "+1"}
     for k, term in enumerate(model.terms):
         if term.term == "GM":
+            if not term.in_model:       # a further term's bound, over correlation times
+                continue
             y = np.sqrt(avar_gm(tt, term.tau, model.fs)) * term.value
             ax.loglog(tt, y / DPH, "--", lw=1, color=f"C{3 + k % 6}",
                       label=f"GM: {_num(term.value / DPH)} deg/h, tau {_num(term.tau)} s")

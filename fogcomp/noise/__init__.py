@@ -82,10 +82,19 @@ from ._processes import (
     avar_term,
     parse_model,
 )
-from ._result import DATASHEET, ModelTerm, NoiseModel
+from ._result import (
+    DATASHEET,
+    DATASHEET_VERSION,
+    Datasheet,
+    ModelTerm,
+    NoiseModel,
+    check_datasheet,
+)
 
 __all__ = [
     "DATASHEET",
+    "DATASHEET_VERSION",
+    "Datasheet",
     "LINEAR_TERMS",
     "TERM_NAMES",
     "ModelTerm",
@@ -94,6 +103,7 @@ __all__ = [
     "avar_gm",
     "avar_model",
     "avar_term",
+    "check_datasheet",
     "identify_noise_model",
     "parse_model",
 ]

@@ -87,6 +87,11 @@ class _Problem:
         return self.basis(tuple(T for _, T in gm)).cov(np.array(c),
                                                        float(co.get("R") or 0.0) ** 2)
 
+    def avar_of(self, co: dict, gm) -> np.ndarray:
+        """The model's Allan variance at the averaging times, the estimates where it is 0."""
+        v = avar_model(self.taus, co, gm, self.fs)
+        return np.where(v > 0, v, self.avar)
+
     def weights(self, co: dict, gm) -> np.ndarray:
         """W with J = |W r|^2 for Omega from the model (co, gm): W = L^-1 D^-1, D the model's
         Allan variance, L L^T = D^-1 Sigma D^-1 + model_error^2 I."""

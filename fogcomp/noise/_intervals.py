@@ -32,18 +32,21 @@ def _sigma_at(pb: _Problem, fit: _Fit, k: int, value: float, scale: float) -> fl
 
 
 def _score_interval(pb: _Problem, fit: _Fit, k: int, z: float, scale: float,
-                    lower: bool = True) -> tuple[float, float | None]:
+                    lower: bool = True, sig=None) -> tuple[float, float | None]:
     """{c >= 0 : |c_hat - c| <= z sigma(c)} for coefficient k, sigma(c) the estimate's spread
     were c the truth (:func:`_sigma_at`). The spread of a variance estimate grows with the
     variance itself, so a Wald interval (sigma at the estimate) is too short below a low
     estimate and too long above a high one; inverting at each hypothesised value, as a score
     test does, is not (measured: the 68 % interval of a 24 h record's rate random walk covers
     in 50 % of records as Wald). Returns (low, high); high None when the interval has no upper
-    end (the record cannot bound the term from above at this level)."""
+    end (the record cannot bound the term from above at this level). ``sig``: a function
+    c -> sigma(c) in place of :func:`_sigma_at` (a further Gauss-Markov term's bound,
+    ``_identify._gm_bound_term``)."""
     c = float(fit.coef[k])
 
-    def sig(v):
-        return _sigma_at(pb, fit, k, v, scale)
+    if sig is None:
+        def sig(v):
+            return _sigma_at(pb, fit, k, v, scale)
 
     lo = 0.0
     if lower and c > 0 and c - z * sig(0.0) > 0:

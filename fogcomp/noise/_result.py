@@ -11,10 +11,67 @@ import numpy as np
 from ..units import ARCSEC, DEG_RT_H, DPH, DPH_PER_H, DPH_RT_H
 from ._processes import TERM_NAMES, avar_model
 
+#: The version of :meth:`NoiseModel.to_datasheet`'s shape (its docstring; the versions before
+#: it are listed there).
+DATASHEET_VERSION = 2
+DATASHEET_FORMAT = "fogcomp.noise datasheet"
+
 # datasheet unit (SI per unit) and key of each term's coefficient
 DATASHEET = {"N": (DEG_RT_H, "arw_deg_rt_h"), "B": (DPH, "bias_instability_dph"),
              "K": (DPH_RT_H, "rrw_dph_rt_h"), "Q": (ARCSEC, "quantisation_arcsec"),
              "R": (DPH_PER_H, "rate_ramp_dph_per_h"), "GM": (DPH, "gm_sigma_dph")}
+
+
+#: The top-level keys of version 0 of the datasheet (``fogcomp.allan``'s five-term fit).
+_VERSION0_KEYS = ("quantisation", "angle_random_walk", "bias_instability", "rate_random_walk",
+                  "rate_ramp", "model_fit", "model_fit_sigma", "model_fit_chi2_red")
+
+
+def _old_shape(key) -> str:
+    return (f"to_datasheet(): key {key!r} is from version 0 of its shape (a dict of terms by "
+            f"name); this is version {DATASHEET_VERSION}: the terms are the list 'terms', "
+            "each with its 'key' ('N', 'B', ...) and 'status' (NoiseModel.to_datasheet's "
+            "docstring)")
+
+
+class Datasheet(dict):
+    """The dict :meth:`NoiseModel.to_datasheet` returns: a plain dict (JSON-ready) whose
+    version-0 keys (``"angle_random_walk"``, ``"model_fit"``, ...) raise a ``KeyError`` that
+    names the new shape, by ``[]`` and by ``get``, where a caller written for that shape
+    would otherwise read None."""
+
+    def __missing__(self, key):
+        if key in _VERSION0_KEYS:
+            raise KeyError(_old_shape(key))
+        raise KeyError(key)
+
+    def get(self, key, default=None):
+        if key in _VERSION0_KEYS and key not in self:
+            raise KeyError(_old_shape(key))
+        return super().get(key, default)
+
+
+def check_datasheet(doc) -> dict:
+    """``doc`` (a :meth:`NoiseModel.to_datasheet` dict, e.g. ``allan.json``'s ``noise``
+    entry read back) when it has this version's shape; else a ``ValueError`` saying which
+    shape it has.
+
+    Raises
+    ------
+    ValueError
+        For a dict without ``format``/``version`` (versions 0 and 1) or of another version.
+    """
+    if not isinstance(doc, dict):
+        raise ValueError(f"datasheet: expected a dict, got {type(doc).__name__}")
+    if doc.get("format") != DATASHEET_FORMAT or "version" not in doc:
+        old = "0" if any(k in doc for k in _VERSION0_KEYS) else "1" if "terms" in doc else "?"
+        raise ValueError(f"datasheet: no 'format': {DATASHEET_FORMAT!r} and 'version' keys: "
+                         f"an older shape (version {old}); this reader takes version "
+                         f"{DATASHEET_VERSION} (NoiseModel.to_datasheet's docstring)")
+    if doc["version"] != DATASHEET_VERSION:
+        raise ValueError(f"datasheet: version {doc['version']!r}; this reader takes version "
+                         f"{DATASHEET_VERSION}")
+    return doc
 
 
 @dataclass(frozen=True)
@@ -24,18 +81,27 @@ class ModelTerm:
     Attributes
     ----------
     term : str
-        ``"Q"``, ``"N"``, ``"B"``, ``"K"``, ``"R"`` or ``"GM"``.
+        ``"Q"``, ``"N"``, ``"B"``, ``"K"``, ``"R"`` or ``"GM"`` (the process).
     status : str
-        ``"identified"`` (significant at the selection's level), ``"upper bound"`` (not
-        significant: ``bound`` is its one-sided 95 % upper bound; when the term is still in the
-        model, ``value`` and its interval are the estimate) or ``"not identified"``.
+        One meaning each, whether the model was selected or stated:
+
+        - ``"identified"``: in the model and shown by the record (selected: significant at
+          the selection's level; stated: fitted above zero), with ``value`` and its
+          interval ``low``..``high``;
+        - ``"upper bound"``: the record does not show it (in the model but not significant,
+          stated and fitted as exactly zero, or left out of the model): ``bound`` is its
+          one-sided 95 % upper bound, and ``low``, ``high``, ``sigma`` are None (no
+          two-sided interval is claimed for a term the record does not show);
+        - ``"not identified"``: neither shown nor bounded by the record.
     value : float or None
-        The coefficient, SI (GM: its standard deviation, rad/s); None for a term outside the
-        model.
+        The coefficient, SI (GM: its standard deviation, rad/s); for a term in the model
+        (``in_model``) the fitted value, the one the model's curve holds, also when it is only
+        bounded; None for a term outside the model.
     low, high : float or None
-        The interval of probability content ``ci`` (the model's), SI.
+        The interval of probability content ``ci`` (the model's), SI: identified terms only.
     sigma : float or None
-        One-sigma uncertainty of ``value`` (linearised, symmetric: for display), SI.
+        One-sigma uncertainty of ``value`` (linearised, symmetric: for display), SI:
+        identified terms only.
     tau : float or None
         GM: the correlation time, s (``tau_low``, ``tau_high``: its interval).
     reason : str
@@ -47,6 +113,14 @@ class ModelTerm:
         One-sided 95 % upper bound of the coefficient, SI (None: the record does not bound it).
     in_model : bool
         Whether the term is part of the fitted model (the curve and the others' estimates).
+    key : str
+        The name :meth:`NoiseModel.term` finds it by: ``"Q"``, ``"N"``, ``"B"``, ``"K"``,
+        ``"R"``; ``"GM1"``, ``"GM2"``, ... for the Gauss-Markov terms (the model's by
+        correlation time, then the further term's bound).
+    bound_by_tau : tuple of (float, float or None)
+        A Gauss-Markov term outside the model: ``(T s, 95 % upper bound of sigma rad/s)`` at
+        each correlation time of the grid the record can see (None where the record does not
+        bound it); ``bound`` is the largest.
     """
 
     term: str
@@ -62,6 +136,8 @@ class ModelTerm:
     record_s_for_10pct: float | None = None
     bound: float | None = None
     in_model: bool = False
+    key: str = ""
+    bound_by_tau: tuple = ()
 
     @property
     def name(self) -> str:
@@ -69,22 +145,30 @@ class ModelTerm:
 
     @property
     def label(self) -> str:
-        return f"GM({self.tau:.3g} s)" if self.term == "GM" else self.term
+        if self.term == "GM":
+            return f"GM({self.tau:.3g} s)" if self.tau is not None else (self.key or "GM")
+        return self.term
 
     def to_datasheet(self) -> dict:
         """This term in datasheet units, the unit in every key (``arw_deg_rt_h``, its
-        ``_low``, ``_high``, ``_sigma``; GM: ``gm_sigma_dph`` and ``gm_tau_s``)."""
+        ``_low``, ``_high``, ``_sigma``; GM: ``gm_sigma_dph`` and ``gm_tau_s``): one entry of
+        :meth:`NoiseModel.to_datasheet`'s ``terms`` (the shape is documented there)."""
         unit, key = DATASHEET[self.term]
 
         def ds(v):
             return None if v is None else float(v / unit)
 
-        out = {"term": self.term, "status": self.status, key: ds(self.value),
+        out = {"key": self.key or self.term, "term": self.term, "status": self.status,
+               key: ds(self.value),
                f"{key}_low": ds(self.low), f"{key}_high": ds(self.high),
                f"{key}_sigma": ds(self.sigma), f"{key}_bound95": ds(self.bound),
                "in_model": self.in_model, "reason": self.reason}
         if self.term == "GM":
             out.update(gm_tau_s=self.tau, gm_tau_low_s=self.tau_low, gm_tau_high_s=self.tau_high)
+            if self.bound_by_tau:
+                out["gm_sigma_dph_bound95_by_tau"] = [
+                    {"tau_s": float(T), "gm_sigma_dph": None if b is None else float(b / unit)}
+                    for T, b in self.bound_by_tau]
         if self.record_s_for_10pct is not None:
             out["record_s_for_10pct"] = float(self.record_s_for_10pct)
         return out
@@ -97,8 +181,12 @@ class NoiseModel:
     Attributes
     ----------
     terms : list of ModelTerm
-        The five IEEE Std 952 terms (``Q, N, B, K, R``, each identified, an upper bound or not
-        identified) followed by the identified Gauss-Markov terms, by correlation time.
+        Every candidate term: the five IEEE Std 952 terms (``Q, N, B, K, R``, each
+        identified, an upper bound or not identified), the model's Gauss-Markov terms by
+        correlation time (``GM1``, ``GM2``, ...), and, when the model holds fewer than
+        ``max_gm``, a further Gauss-Markov term outside it with its 95 % upper bound at the
+        correlation times the record can see (the next ``GM<i>``). :meth:`term` finds each by
+        name.
     taus, avar : ndarray, shape (k,)
         The averaging times (s) and the Allan variance estimates fitted (rad^2/s^2).
     avar_cov : ndarray, shape (k, k)
@@ -149,12 +237,46 @@ class NoiseModel:
     model_error: float = 0.001
 
     def term(self, name: str) -> ModelTerm:
-        """The term ``"Q"``, ``"N"``, ``"B"``, ``"K"``, ``"R"`` (GM terms: ``gm_terms``)."""
-        return next(t for t in self.terms if t.term == name)
+        """The term called ``name`` (case and spaces ignored).
+
+        ``"Q"``, ``"N"``, ``"B"``, ``"K"``, ``"R"``: the IEEE terms, always there.
+        ``"GM1"``, ``"GM2"``, ...: the model's Gauss-Markov terms by correlation time, then the
+        further one outside the model (its bound), as ``terms`` lists them.
+        ``"GM"``: the Gauss-Markov term when that is unambiguous: the model's only one, or
+        the further term's bound when the model holds none; a model with several raises
+        (name one of them).
+
+        Raises
+        ------
+        KeyError
+            For a name the model does not hold, or ``"GM"`` with several Gauss-Markov terms
+            in the model; the message lists the names it holds.
+        """
+        key = "".join(str(name).split()).upper()
+        keyed = [(t.key or t.term, t) for t in self.terms]
+        for k, t in keyed:
+            if k == key:
+                return t
+        gms = [t for t in self.terms if t.term == "GM"]
+        inside = [t for t in gms if t.in_model]
+        names = ", ".join(k for k, _ in keyed)
+        if key == "GM":
+            if len(inside) == 1:
+                return inside[0]
+            if not inside and gms:
+                return gms[0]
+            if inside:
+                which = ", ".join(f"{t.key} (tau {t.tau:.3g} s)" for t in inside)
+                raise KeyError(f"term: 'GM' is ambiguous, this model holds {len(inside)} "
+                               f"Gauss-Markov terms: {which}; name one")
+        raise KeyError(f"term: no term {name!r} in this model; it holds {names}"
+                       + (" ('GM': the Gauss-Markov term when there is one)" if gms else ""))
 
     @property
     def gm_terms(self) -> list:
-        return [t for t in self.terms if t.term == "GM"]
+        """The Gauss-Markov terms of the fitted model, by correlation time (a further term's
+        bound, outside the model, is not among them: ``terms``, :meth:`term`)."""
+        return [t for t in self.terms if t.term == "GM" and t.in_model]
 
     @property
     def identified(self) -> list:
@@ -222,12 +344,47 @@ class NoiseModel:
                 out.append({"term": "R", "continuous": {"ramp_rad_s2": v}, "discrete": None})
         return out
 
-    def to_datasheet(self) -> dict:
-        """The whole model in datasheet units: ``terms`` (:meth:`ModelTerm.to_datasheet` each),
-        ``floor_reading`` (deg/h), the fit's ``J``, ``dof``, ``p_value``, ``scale`` and the
-        ``selection`` steps."""
+    def to_datasheet(self) -> Datasheet:
+        """The whole model in datasheet units: a JSON-ready dict of this shape, version
+        ``DATASHEET_VERSION`` (2)::
+
+            {"format": "fogcomp.noise datasheet", "version": 2,
+             "model": "N + GM",             # the identified terms, as a model= string
+             "stated": bool,                # model= given rather than selected
+             "ci": float,                   # the intervals' probability content
+             "terms": [                     # Q, N, B, K, R, then GM1, GM2, ... (NoiseModel.terms)
+                 {"key": "N" | ... | "GM1" | ...,   # the name NoiseModel.term() takes
+                  "term": "Q" | "N" | "B" | "K" | "R" | "GM",
+                  "status": "identified" | "upper bound" | "not identified",
+                  "<k>": value, "<k>_low", "<k>_high", "<k>_sigma",  # identified only
+                  "<k>_bound95": one-sided 95 % upper bound,
+                  "in_model": bool, "reason": str,
+                  # GM only: "gm_tau_s", "gm_tau_low_s", "gm_tau_high_s"; outside the model
+                  # "gm_sigma_dph_bound95_by_tau": [{"tau_s", "gm_sigma_dph"}, ...];
+                  # where predicted: "record_s_for_10pct"
+                 }, ...],
+             "floor_reading": {"bias_instability_dph", "bias_instability_sigma_dph", "tau_s",
+                               "convention", "reason"},
+             "fit": {"J", "dof", "p_value", "scale", "alpha", "model_error"},
+             "selection": [str, ...]}
+
+        ``<k>`` is the term's datasheet key with its unit (``DATASHEET``:
+        ``quantisation_arcsec``, ``arw_deg_rt_h``, ``bias_instability_dph``, ``rrw_dph_rt_h``,
+        ``rate_ramp_dph_per_h``, ``gm_sigma_dph``); a value the record does not give is None.
+        The statuses are :class:`ModelTerm`'s.
+
+        Earlier shapes, neither with ``format`` nor ``version``: version 1 (the composite
+        identifier before this one) had the same ``terms`` list without ``key``, with a
+        ``low``/``high`` for a term in the model but not significant, and no further
+        Gauss-Markov term; version 0 (``fogcomp.allan``'s five-term fit) was a dict keyed by
+        the terms' names in words (``"angle_random_walk": {"arw_deg_rt_h", "status", ...}``,
+        ``"model_fit"``). The dict returned raises a ``KeyError`` that says so when one of
+        version 0's keys is read, by ``[]`` or by ``get`` (not a silent None);
+        :func:`check_datasheet` checks a dict read back from JSON.
+        """
         fr = self.floor_reading
-        return {
+        return Datasheet({
+            "format": DATASHEET_FORMAT, "version": DATASHEET_VERSION,
             "model": self.spec(), "stated": self.stated, "ci": self.ci,
             "terms": [t.to_datasheet() for t in self.terms],
             "floor_reading": {
@@ -239,7 +396,7 @@ class NoiseModel:
             "fit": {"J": self.J, "dof": self.dof, "p_value": self.p_value, "scale": self.scale,
                     "alpha": self.alpha, "model_error": self.model_error},
             "selection": list(self.selection),
-        }
+        })
 
     def datasheet_values(self) -> dict:
         """The flat ``{key: value}`` of the identified IEEE terms in datasheet units (None where

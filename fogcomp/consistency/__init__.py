@@ -1,0 +1,20 @@
+"""Noise models a navigation filter can trust: the bias-tracking Kalman filter an identified
+noise model implies, its consistency where the truth is known (NEES over simulated records) and
+where it is not (NIS on the held-out part of a real log), and the inflation factor that makes a
+filter consistent, measured with its interval instead of guessed.
+
+The filter and its discretisation: :mod:`fogcomp.consistency._filter`; the tests and the
+inflation factor: :mod:`fogcomp.consistency._verdicts`; the held-out procedure on a log:
+:func:`held_out`.
+"""
+
+from ._filter import (BiasFilterModel, FilterRun, flicker_as_gm, from_noise_model, run_filter,
+                      van_loan)
+from ._heldout import HeldOut, held_out
+from ._verdicts import (InflationResult, NeesResult, clopper_pearson, inflation_factor,
+                     nees_test, nis_scales, summarise_nees, track_indices)
+
+__all__ = ["BiasFilterModel", "FilterRun", "HeldOut", "InflationResult", "NeesResult",
+           "clopper_pearson", "flicker_as_gm", "from_noise_model", "held_out",
+           "inflation_factor", "nees_test", "nis_scales", "run_filter", "summarise_nees",
+           "track_indices", "van_loan"]

@@ -139,7 +139,8 @@ def _t_interval(x, ci=0.95):
     if x.size < 2:
         return float(x.mean()), float("nan"), float("nan")
     half = t.ppf(0.5 + ci / 2, x.size - 1) * x.std(ddof=1) / math.sqrt(x.size)
-    return float(x.mean()), float(x.mean() - half), float(x.mean() + half)
+    # a share: the interval clipped to [0, 1]
+    return float(x.mean()), max(0.0, float(x.mean() - half)), min(1.0, float(x.mean() + half))
 
 
 def summarise_nees(results) -> dict:

@@ -240,14 +240,23 @@ def from_noise_model(model, *, per_decade: int = 1, bias_prior: float = 0.1,
                      label: str = "identified") -> BiasFilterModel:
     """The filter of an identified :class:`fogcomp.noise.NoiseModel`: the terms of its fitted
     model (``in_model``), the flicker by :func:`flicker_as_gm` over the model's averaging
-    times."""
+    times.
+
+    A filter needs a measurement noise: when the model holds no white rate noise N (a record
+    whose shortest averaging times are dominated by another term), N is taken from the Allan
+    variance at the shortest averaging time, ``N^2 = AVAR(tau_0) tau_0`` (the white noise that
+    alone would give that point: an upper bound of N), and the label says so."""
     co, gm = model.coefficients()
     B = co.get("B") or 0.0
     fl = flicker_as_gm(B, model.fs, model.taus, per_decade)[0] if B > 0 else ()
     N = co.get("N") or 0.0
     if not N > 0:
-        raise ValueError("model: no angle random walk (N) in the identified model; the filter "
-                         "needs the white rate noise as its measurement noise")
+        N = math.sqrt(float(model.avar[0]) * float(model.taus[0]))
+        label += " (N from the Allan variance at the shortest tau: not in the model)"
+        if not N > 0:
+            raise ValueError("model: no white rate noise (N) in the identified model and a "
+                             "zero Allan variance at the shortest averaging time; the filter "
+                             "needs a measurement noise")
     return BiasFilterModel(fs=model.fs, N=N, K=co.get("K") or 0.0, R=co.get("R") or 0.0,
                            Q=co.get("Q") or 0.0, gm=tuple((float(s), float(T)) for s, T in gm),
                            flicker=fl, bias_prior=bias_prior, label=label)

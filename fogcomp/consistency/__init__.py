@@ -3,9 +3,11 @@ noise model implies, its consistency where the truth is known (NEES over simulat
 where it is not (NIS on the held-out part of a real log), and the inflation factor that makes a
 filter consistent, measured with its interval instead of guessed.
 
-The filter and its discretisation: :mod:`fogcomp.consistency._filter`; the tests and the
-inflation factor: :mod:`fogcomp.consistency._verdicts`; the held-out procedure on a log:
-:func:`held_out`.
+The filter and its discretisation are in ``_filter.py`` (its docstring has the table of states
+and their exact discrete forms); the NEES and NIS tests, their bands and the inflation factor in
+``_verdicts.py`` (its docstring has the statistics and their sources); the held-out procedure on
+a log in ``_heldout.py`` (:func:`held_out`). The user's guide with the measured numbers:
+``docs/guides/filter-consistency.md``.
 """
 
 from ._filter import (BiasFilterModel, FilterRun, flicker_as_gm, from_noise_model, run_filter,

@@ -238,15 +238,19 @@ class BiasFilterModel:
 
 def from_noise_model(model, *, per_decade: int = 1, bias_prior: float = 0.1,
                      label: str = "identified") -> BiasFilterModel:
-    """The filter of an identified :class:`fogcomp.noise.NoiseModel`: the terms of its fitted
-    model (``in_model``), the flicker by :func:`flicker_as_gm` over the model's averaging
-    times.
+    """The filter of an identified :class:`fogcomp.noise.NoiseModel`: its identified terms
+    (significant at the selection's level, as :meth:`~fogcomp.noise.NoiseModel.filter_parameters`
+    gives them; a weak term kept in the fit for the others' sake is left out: a quantisation
+    term that the record does not show would tell the filter the rate noise is strongly
+    anti-correlated from one sample to the next), the flicker by :func:`flicker_as_gm` over the
+    model's averaging times.
 
     A filter needs a measurement noise: when the model holds no white rate noise N (a record
     whose shortest averaging times are dominated by another term), N is taken from the Allan
     variance at the shortest averaging time, ``N^2 = AVAR(tau_0) tau_0`` (the white noise that
     alone would give that point: an upper bound of N), and the label says so."""
-    co, gm = model.coefficients()
+    co = {t.term: t.value for t in model.identified if t.term != "GM"}
+    gm = [(t.value, t.tau) for t in model.identified if t.term == "GM"]
     B = co.get("B") or 0.0
     fl = flicker_as_gm(B, model.fs, model.taus, per_decade)[0] if B > 0 else ()
     N = co.get("N") or 0.0

@@ -84,7 +84,7 @@ def held_out(rate, fs: float, *, split: float = 0.5, known_rate=0.0, segments=No
                          f"of the split at sample {s}")
     _, nm = allan_analysis(z[:s], fs, segments=fit_segs, model=model)
     fm = from_noise_model(nm, per_decade=per_decade)
-    co, _ = nm.coefficients()
+    co = {t.term: t.value for t in nm.identified}
     ferr = flicker_as_gm(co.get("B") or 0.0, fs, nm.taus, per_decade)[1]
     pieces = [z[a:b] for a, b in held]
     infl = {t: inflation_factor(fm, pieces, terms=t, grid=grid) for t in terms}

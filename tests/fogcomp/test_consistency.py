@@ -151,3 +151,17 @@ def test_adis16405_held_out_inflation():
     r = h.inflation["all"]
     assert r.f_low <= r.f_hat <= r.f_high
     assert r.consistent_at_1 == (r.f_low <= 1.0 <= r.f_high)
+
+
+def test_a_device_file_gives_its_filter(tmp_path):
+    """The tactical preset's ARW and RRW, converted by hand, and a Gauss-Markov drift."""
+    from fogbench.device.filter import filter_model
+
+    dev = tmp_path / "dev.toml"
+    dev.write_text('source = "test"\narw_deg_rt_h = 0.03\nrrw_dph_rt_h = 0.1\n'
+                   'gm_drift_dps = 0.00013888889\ngm_time_constant_s = 100.0\n')
+    m = filter_model(dev, 10.0)
+    assert m.N == pytest.approx(0.03 * DEG_RT_H, rel=1e-9)
+    assert m.K == pytest.approx(0.1 * DPH_RT_H, rel=1e-9)
+    assert m.gm[0][0] == pytest.approx(0.5 * DPH, rel=1e-6) and m.gm[0][1] == 100.0
+    assert m.states == ["b", "gm0"]

@@ -68,6 +68,7 @@ def _res_json(r) -> dict:
             "block_samples": r.L.tolist(), "nis_as_identified": r.nis_at_1.tolist(),
             "nis_band_low": r.band[:, 0].tolist(), "nis_band_high": r.band[:, 1].tolist(),
             "n_innovations": r.n, "method": r.method,
+            "block_verdicts": [r.verdict_at(f) for f in (1.0, max(1.0, r.f_low), 10.0)],
             "factor_multiplies": "every coefficient (variances by its square)"}
 
 
@@ -110,6 +111,11 @@ def lines(results: dict) -> list[str]:
                      "underconfident" if res.underconfident_at_f_low else "")
             out.append(f"  {name:14s} {label:17s} factor {_fmt(res)} (binding block "
                        f"{res.scale_L / fs:.3g} s); as identified: {verdict}{extra}")
+            vs = [res.verdict_at(f) for f in (1.0, max(1.0, res.f_low), 10.0)]
+            out.append("  " + " " * 32 + "block lengths over / under / inside their band: "
+                       + "; ".join(f"x{v['factor']:.3g}: {v['overconfident']} / "
+                                   f"{v['underconfident']} / {v['consistent']}" for v in vs)
+                       + " (identified, measured, a guessed 10)")
     return out
 
 

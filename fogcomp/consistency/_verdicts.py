@@ -253,6 +253,20 @@ class InflationResult:
     method: str = ("chi-square test inversion of the block NIS at L = 1, 2, 4, ... "
                    "(Bonferroni over the scales, 95 %)")
 
+    def verdict_at(self, factor: float) -> dict:
+        """The block NIS of the model inflated by ``factor`` (interpolated in log-log on the
+        grid): how many block lengths are overconfident (above their band), underconfident
+        (below it) and consistent, and the largest NIS."""
+        g = np.log(self.grid)
+        x = min(max(math.log(factor), g[0]), g[-1])
+        st = np.array([math.exp(np.interp(x, g, np.log(self.nis_grid[:, j])))
+                       for j in range(self.L.size)])
+        # (a relative 1e-9: at f_low the binding block length's NIS is its bound)
+        over = int(np.sum(st > self.band[:, 1] * (1 + 1e-9)))
+        under = int(np.sum(st < self.band[:, 0] * (1 - 1e-9)))
+        return {"factor": float(factor), "overconfident": over, "underconfident": under,
+                "consistent": int(self.L.size - over - under), "max_nis": float(st.max())}
+
 
 def default_grid() -> np.ndarray:
     return np.geomspace(0.25, 1000.0, 37)
@@ -279,6 +293,7 @@ def inflation_factor(model, pieces, *, terms: str = "all", grid=None, alpha: flo
     from ._filter import run_filter
 
     grid = default_grid() if grid is None else np.asarray(grid, dtype=float)
+    grid = np.union1d(grid, [1.0])              # the model as identified is always run
     members = [model.inflated(f, terms) for f in grid]
     us = []
     for p in pieces:
@@ -290,7 +305,7 @@ def inflation_factor(model, pieces, *, terms: str = "all", grid=None, alpha: flo
     a = alpha / k
     lo_q = chi2.ppf(a / 2, dof) / dof
     hi_q = chi2.ppf(1 - a / 2, dof) / dof
-    i1 = int(np.argmin(np.abs(np.log(grid))))
+    i1 = int(np.flatnonzero(grid == 1.0)[0])
     hat = [_crossing(grid, st[:, j], 1.0) for j in range(k)]
     low = [_crossing(grid, st[:, j], hi_q[j]) for j in range(k)]
     jb = int(np.argmax([h[0] for h in hat]))

@@ -14,9 +14,10 @@ from ._filter import (BiasFilterModel, FilterRun, flicker_as_gm, from_noise_mode
                       van_loan)
 from ._heldout import HeldOut, held_out
 from ._verdicts import (InflationResult, NeesResult, clopper_pearson, inflation_factor,
-                     nees_test, nis_scales, summarise_nees, track_indices)
+                        inflation_factors, nees_test, nis_scales, summarise_nees,
+                        track_indices)
 
 __all__ = ["BiasFilterModel", "FilterRun", "HeldOut", "InflationResult", "NeesResult",
            "clopper_pearson", "flicker_as_gm", "from_noise_model", "held_out",
-           "inflation_factor", "nees_test", "nis_scales", "run_filter", "summarise_nees",
-           "track_indices", "van_loan"]
+           "inflation_factor", "inflation_factors", "nees_test", "nis_scales", "run_filter",
+           "summarise_nees", "track_indices", "van_loan"]

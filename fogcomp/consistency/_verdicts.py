@@ -50,7 +50,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 __all__ = ["NeesResult", "nees_test", "clopper_pearson", "summarise_nees", "nis_scales",
-           "InflationResult", "inflation_factor", "track_indices"]
+           "InflationResult", "inflation_factor", "inflation_factors", "track_indices"]
 
 
 def clopper_pearson(k: int, n: int, ci: float = 0.95) -> tuple[float, float]:
@@ -288,8 +288,6 @@ def inflation_factor(model, pieces, *, terms: str = "all", grid=None, alpha: flo
     grid : array_like, optional
         Factors tried (default 0.25 to 1000, 37 log-spaced).
     """
-    from scipy.stats import chi2
-
     from ._filter import run_filter
 
     grid = default_grid() if grid is None else np.asarray(grid, dtype=float)
@@ -299,7 +297,28 @@ def inflation_factor(model, pieces, *, terms: str = "all", grid=None, alpha: flo
     for p in pieces:
         r = run_filter(members, np.asarray(p, dtype=float))
         us.append(r.innov / np.sqrt(r.S))
-    u = np.concatenate(us, axis=1)
+    return _from_innovations(grid, np.concatenate(us, axis=1), terms, alpha, min_blocks)
+
+
+def inflation_factors(models, records, *, terms: str = "all", grid=None, alpha: float = 0.05,
+                      min_blocks: int = 16) -> list:
+    """:func:`inflation_factor` of many (model, record) pairs in one batched filter run (the
+    records of one length, each one gap-free piece): a list of InflationResult."""
+    from ._filter import run_filter
+
+    grid = default_grid() if grid is None else np.asarray(grid, dtype=float)
+    grid = np.union1d(grid, [1.0])
+    z = np.asarray(records, dtype=float)
+    members = [m.inflated(f, terms) for m in models for f in grid]
+    r = run_filter(members, np.repeat(z, grid.size, axis=0))
+    u = (r.innov / np.sqrt(r.S)).reshape(len(models), grid.size, -1)
+    return [_from_innovations(grid, u[i], terms, alpha, min_blocks) for i in range(len(models))]
+
+
+def _from_innovations(grid, u, terms, alpha, min_blocks) -> InflationResult:
+    """The InflationResult of normalised innovations ``u`` (grid.size, n), one row a factor."""
+    from scipy.stats import chi2
+
     L, st, dof = nis_scales(u, min_blocks)
     k = L.size
     a = alpha / k
@@ -315,7 +334,7 @@ def inflation_factor(model, pieces, *, terms: str = "all", grid=None, alpha: flo
     # the scales below their band at f_low (interpolated on the grid)
     st_at = np.array([np.exp(np.interp(math.log(f_low), np.log(grid), np.log(st[:, j])))
                       for j in range(k)])
-    under = [int(L[j]) for j in range(k) if st_at[j] < lo_q[j]]
+    under = [int(L[j]) for j in range(k) if st_at[j] < lo_q[j] * (1 - 1e-9)]
     at1 = st[i1]
     return InflationResult(
         f_hat=hat[jb][0], f_low=f_low, f_high=high[0],

@@ -22,7 +22,7 @@ import numpy as np
 
 from fogbench.formats.errors import LogError
 
-__all__ = ["measure", "consistency_json", "lines", "file_notes", "GRID"]
+__all__ = ["measure", "consistency_json", "lines", "file_notes", "measured_factor", "GRID"]
 
 #: Factors tried (0.5 to 1000, 28 log-spaced).
 GRID = np.geomspace(0.5, 1000.0, 28)

@@ -165,3 +165,19 @@ def test_a_device_file_gives_its_filter(tmp_path):
     assert m.K == pytest.approx(0.1 * DPH_RT_H, rel=1e-9)
     assert m.gm[0][0] == pytest.approx(0.5 * DPH, rel=1e-6) and m.gm[0][1] == 100.0
     assert m.states == ["b", "gm0"]
+
+
+def test_batched_inflation_factors_equal_one_at_a_time():
+    from fogcomp.consistency import inflation_factor, inflation_factors
+
+    rng = np.random.default_rng(3)
+    m = BiasFilterModel(fs=10.0, N=0.01, K=1e-3, gm=((0.01, 5.0),))
+    zs = rng.standard_normal((2, 3000)) * 0.05
+    grid = np.geomspace(0.5, 20, 9)
+    batch = inflation_factors([m, m.inflated(2.0)], zs, grid=grid)
+    one = [inflation_factor(m, [zs[0]], grid=grid), inflation_factor(m.inflated(2.0), [zs[1]],
+                                                                     grid=grid)]
+    for b, o in zip(batch, one):
+        assert (b.f_low, b.f_hat, b.f_high) == pytest.approx((o.f_low, o.f_hat, o.f_high),
+                                                             rel=1e-12)
+        np.testing.assert_allclose(b.nis_grid, o.nis_grid, rtol=1e-12)

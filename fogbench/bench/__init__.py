@@ -5,7 +5,7 @@ to a reference in the same run: the rig against bare ``mujoco.rollout`` and the 
 (:mod:`.allan`); every method, the Kalman engines against filterpy (:mod:`.methods`); every
 bundled scenario's first run and one replicate, and the replicates per second on one and two
 processes (:mod:`.scenarios`); the noise identifier's accuracy and coverage on records of known
-noise (:mod:`.noise`) the joint round trip of one gyro's logs (:mod:`.joint`) and the device-file round trip (:mod:`.device`)."""
+noise (:mod:`.noise`) the joint round trip of one gyro's logs (:mod:`.joint`), the device-file round trip (:mod:`.device`) and the consistency of the filters noise models imply (:mod:`.consistency`, about a minute at 20 seeds: full bench only)."""
 
 from __future__ import annotations
 
@@ -50,6 +50,10 @@ def main(seconds: float = 600.0, repeats: int = 5, noise_seeds: int = 20,
     print_joint(seeds=noise_seeds)
     print()
     bench_device(seeds=noise_seeds)
+    from fogbench.bench.consistency import run as bench_consistency
+
+    print()
+    bench_consistency(seeds=noise_seeds)
     return 0
 
 

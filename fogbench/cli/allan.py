@@ -40,6 +40,15 @@ def add_parser(sub) -> None:
                    "densities written by this factor (default 1: none; stated in the file)")
     a.add_argument("--inflate-walk", type=float, default=1.0, help="multiply the random walks "
                    "written by this factor (default 1: none; stated in the file)")
+    a.add_argument("--consistency", action="store_true", help="identify the noise model on "
+                   "the first part of the log, run the Kalman filter it implies (and Kalibr's "
+                   "N + K filter) over the rest, and measure the inflation factor that makes "
+                   "its NIS consistent, with its interval (printed, in allan.json, and in the "
+                   "comments of --kalibr / --openvins)")
+    a.add_argument("--holdout", type=float, default=0.5, help="--consistency: fraction of the "
+                   "log held out for the filter (default 0.5: identified on the first half)")
+    a.add_argument("--inflate-measured", action="store_true", help="inflate the values of "
+                   "--kalibr / --openvins by the measured factor (implies --consistency)")
     add_log_flags(a)
     a.set_defaults(func=warnings_as_lines(_allan))
 

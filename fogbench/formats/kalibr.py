@@ -189,13 +189,18 @@ _UNITS = {("gyroscope", "N"): "rad/s/sqrt(Hz)", ("gyroscope", "K"): "rad/s^2/sqr
 _KEYS = {"N": "noise_density", "K": "random_walk"}
 
 
-def _entries(values: dict, inflate_density: float, inflate_walk: float):
-    """(key, value or None, comment lines) for the four noise keys, in Kalibr's order."""
+def _entries(values: dict, inflate_density: float, inflate_walk: float,
+             gyro_only: bool = False):
+    """(key, value or None, comment lines) for the four noise keys, in Kalibr's order
+    (``gyro_only``: the factors inflate the gyroscope's values only, as a factor measured on
+    the gyros)."""
     out = []
     for sensor in ("gyroscope", "accelerometer"):
         for term in ("N", "K"):
             name, unit = f"{sensor}_{_KEYS[term]}", _UNITS[sensor, term]
             f = inflate_density if term == "N" else inflate_walk
+            if gyro_only and sensor != "gyroscope":
+                f = 1.0
             v = values.get((sensor, term), "not given; fill it in")
             if isinstance(v, str):
                 out.append((name, None, [f"{name}: {v}"]))
@@ -212,13 +217,18 @@ def _entries(values: dict, inflate_density: float, inflate_walk: float):
 
 
 def _header(source: str, fs: float, inflate_density: float, inflate_walk: float, what: str,
-            command: str):
+            command: str, measured: tuple = (), measured_applied: bool = False):
     lines = [f"{MARK}{command}: {what} from {source}",
              "# Kalibr IMU noise model, continuous time, SI: noise density = Allan N (IEEE Std",
              "# 952-1997 annex C, sigma^2(tau) = N^2/tau), random walk = Allan K",
              "# (sigma^2(tau) = K^2 tau/3)" + ("; the largest value over the log's axes."
                                                 if command == "allan" else ".")]
-    if inflate_density != 1.0 or inflate_walk != 1.0:
+    lines += [f"# {m}" for m in measured]
+    if measured_applied:
+        lines.append(f"# INFLATED x{inflate_density:.4g} (the gyroscope's noise density and "
+                     "random walk; the accelerometer's as identified) as measured above "
+                     "(--inflate-measured)")
+    elif inflate_density != 1.0 or inflate_walk != 1.0:
         lines.append(f"# INFLATED (--inflate-density {inflate_density:g}, --inflate-walk "
                      f"{inflate_walk:g}) for effects a static record misses (Kalibr wiki, IMU "
                      "Noise Model; allan_variance_ros #44)")
@@ -232,11 +242,15 @@ def _header(source: str, fs: float, inflate_density: float, inflate_walk: float,
 
 def kalibr_text(values: dict, fs: float, source: str, *, topic: str = "/imu0",
                 inflate_density: float = 1.0, inflate_walk: float = 1.0,
-                command: str = "allan") -> str:
+                command: str = "allan", measured: tuple = (),
+                measured_applied: bool = False) -> str:
     """Kalibr's ``imu.yaml`` (``kalibr_calibrate_imu_camera --imu``) of the entries
-    ``values`` ({(sensor, term): NoiseValue or why it is missing})."""
-    lines = _header(source, fs, inflate_density, inflate_walk, "Kalibr imu.yaml", command)
-    for key, value, notes in _entries(values, inflate_density, inflate_walk):
+    ``values`` ({(sensor, term): NoiseValue or why it is missing}); ``measured``: comment
+    lines saying how the inflation factor was measured (``fogbench allan --consistency``),
+    ``measured_applied``: the factors given are that measurement's."""
+    lines = _header(source, fs, inflate_density, inflate_walk, "Kalibr imu.yaml", command,
+                    measured, measured_applied)
+    for key, value, notes in _entries(values, inflate_density, inflate_walk, measured_applied):
         lines += [f"# {n}" for n in notes]
         lines.append(f"{key}: {_num9(value)}" if value is not None else f"# {key}:")
     lines += [f"# {n}" for n in _gm_comments(values)]
@@ -246,15 +260,18 @@ def kalibr_text(values: dict, fs: float, source: str, *, topic: str = "/imu0",
 
 def openvins_text(values: dict, fs: float, source: str, *,
                   topic: str = "/imu0", inflate_density: float = 1.0,
-                  inflate_walk: float = 1.0, command: str = "allan") -> str:
+                  inflate_walk: float = 1.0, command: str = "allan", measured: tuple = (),
+                  measured_applied: bool = False) -> str:
     """OpenVINS' ``kalibr_imu_chain.yaml`` (its ``model: kalibr`` form, identity intrinsics:
     the noise only). It starts ``%YAML 1.0``, its comments, ``---`` (see ``_OPENCV_YAML``):
-    OpenCV, which OpenVINS reads it with, and PyYAML load it as it is."""
+    OpenCV, which OpenVINS reads it with, and PyYAML load it as it is. ``measured``,
+    ``measured_applied``: as :func:`kalibr_text`."""
     lines = [_OPENCV_YAML, *_header(source, fs, inflate_density, inflate_walk,
-                                    "OpenVINS kalibr_imu_chain.yaml", command), "---", "imu0:",
+                                    "OpenVINS kalibr_imu_chain.yaml", command, measured,
+                                    measured_applied), "---", "imu0:",
              "  T_i_b:"] + [f"    - [{', '.join('1.0' if i == j else '0.0' for j in range(4))}]"
                             for i in range(4)]
-    for key, value, notes in _entries(values, inflate_density, inflate_walk):
+    for key, value, notes in _entries(values, inflate_density, inflate_walk, measured_applied):
         lines += [f"  # {n}" for n in notes]
         lines.append(f"  {key}: {_num9(value)}" if value is not None else f"  # {key}:")
     lines += [f"  # {n}" for n in _gm_comments(values)]

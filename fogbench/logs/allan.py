@@ -108,6 +108,9 @@ class AllanOptions(LogOptions):
     imu_topic: str = "/imu0"
     inflate_density: float = 1.0
     inflate_walk: float = 1.0
+    consistency: bool = False
+    holdout: float = 0.5
+    inflate_measured: bool = False
 
 
 def _check_flags(opts: AllanOptions) -> float:
@@ -129,6 +132,18 @@ def _check_flags(opts: AllanOptions) -> float:
         raise LogError("allan: give either LOG.csv or --curve CURVE.csv, not both")
     if not opts.curve and opts.log is None:
         raise LogError("allan: give LOG.csv (or --curve CURVE.csv)")
+    if (opts.consistency or opts.inflate_measured) and opts.curve:
+        raise LogError("--consistency: needs a log (the filter runs over its samples), not "
+                       "--curve")
+    if not 0.05 <= opts.holdout <= 0.95:
+        raise LogError(f"--holdout: expected the fraction of the log held out, 0.05 to 0.95, "
+                       f"got {_fmt_number(opts.holdout)}")
+    if opts.inflate_measured and (opts.inflate_density != 1.0 or opts.inflate_walk != 1.0):
+        raise LogError("--inflate-measured: give it alone, not with --inflate-density or "
+                       "--inflate-walk (the factor is the measured one)")
+    if opts.inflate_measured and not (opts.kalibr or opts.openvins):
+        raise LogError("--inflate-measured: inflates the values of --kalibr / --openvins; "
+                       "name one of them")
     return ci
 
 
@@ -255,9 +270,21 @@ def allan(opts: AllanOptions) -> int:
         results, meta, label, targets, log, acc_models = _from_log(opts, out, ci,
                                                                    bool(tool_files))
         fs, src, summary = log.fs, opts.log, log.describe()
+    cons = None
+    if opts.consistency or opts.inflate_measured:
+        from fogbench.logs.consistency import measure
+
+        # the results are named gyro_x_<unit>: the channel is gyro_x
+        cons = measure(log, ["_".join(n.split("_")[:2]) for n, _, _, _ in results],
+                       opts.holdout, opts.log)
     tool_texts = _tool_texts(tool_files, opts, {n: m for n, _, m, _ in results}, acc_models,
-                             fs, src)
+                             fs, src, cons)
     doc = _allan_doc(meta, results)
+    if cons is not None:
+        from fogbench.logs.consistency import consistency_json
+
+        for name, entry in consistency_json(cons, opts.holdout).items():
+            doc["columns"][name]["consistency"] = entry
     try:
         for path, text in tool_texts:
             out.write_text(path, text)
@@ -281,6 +308,11 @@ def allan(opts: AllanOptions) -> int:
     print(table(rows))
     for line in notes(rows):
         print(line)
+    if cons is not None:
+        from fogbench.logs.consistency import lines
+
+        for line in lines(cons):
+            print(line)
     if targets is not None:
         print(f"wrote {targets['allan.json']} and {len(results)} figure(s) in {opts.out}")
     for path, _ in tool_texts:
@@ -312,10 +344,20 @@ def _tool_targets(out: _Outputs, opts, protect: tuple) -> list:
     return files
 
 
-def _tool_texts(files, opts, gyro: dict, acc: dict, fs: float, src) -> list:
+def _tool_texts(files, opts, gyro: dict, acc: dict, fs: float, src, cons=None) -> list:
+    """The noise files' texts; with ``cons`` (--consistency) their comments say how the
+    inflation factor was measured, and --inflate-measured applies it to both terms."""
     from fogbench.formats.kalibr import TEXTS, values_from_models
 
     values = values_from_models(gyro, acc or None)
-    return [(p, TEXTS[kind](values, fs, str(src), topic=opts.imu_topic,
-                            inflate_density=opts.inflate_density,
-                            inflate_walk=opts.inflate_walk)) for kind, p in files]
+    fd, fw, notes, applied = opts.inflate_density, opts.inflate_walk, (), False
+    if cons is not None:
+        from fogbench.logs.consistency import file_notes, measured_factor
+
+        notes = tuple(file_notes(cons, opts.holdout))
+        if opts.inflate_measured:
+            fd = fw = measured_factor(cons)
+            applied = True
+    return [(p, TEXTS[kind](values, fs, str(src), topic=opts.imu_topic, inflate_density=fd,
+                            inflate_walk=fw, measured=notes, measured_applied=applied))
+            for kind, p in files]

@@ -352,9 +352,12 @@ def _fit_key(ms, seed, piece: Piece) -> tuple:
     h = hashlib.blake2b(digest_size=16)
     g = piece.gyro()
     ref = piece.truth if piece.ref is None else piece.ref
-    cls = fogcomp.get_method(ms.name)
     names = ("g", "temp", "temp_rate")
-    if cls.__module__.startswith("fogcomp."):
+    try:
+        cls = fogcomp.get_method(ms.name)
+    except Exception:   # a plug-in that does not load (its fit is recorded as failed)
+        cls = None
+    if cls is not None and cls.__module__.startswith("fogcomp."):
         names = tuple(n for n in names if n in cls.requires)
     for a in (g.rate, ref, *(getattr(g, n) for n in names)):
         if a is None:

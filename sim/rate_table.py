@@ -1,16 +1,25 @@
 """The MuJoCo two-axis rate table (``rate_table.xml`` beside this file) and its truth.
 
 The table is driven open-loop by servo commands built from a motion program (``sim.motion``) and
-rolled out with ``mujoco.rollout`` in C. Truth at the FOG is what MuJoCo's ``gyro`` at the FOG
-site reads and the specific force from the site's velocity differenced over each physics step
+rolled out with ``mujoco.rollout`` in C. The true rate at the FOG is what a FOG integrates: the
+integral over the sample interval of the site's body rate, divided by the interval. It is built
+from the physics steps consistently with the poses (``_HingeChain``): MuJoCo's semi-implicit
+Euler moves each hinge across a step by the velocity after the step, so the body rate that carries
+the pose across a step is the one of the joint angles moving linearly between the step's two
+states, and its integral over the step is closed form. Summed over a sample's steps it keeps the
+coning term of a tilt while the turntable turns (it is not the rotation vector between the
+sample's bounding poses), and a strapdown integration of it reproduces the poses to the
+integration algorithm's own order (``tests/sim/test_truth_closure.py``; issue 42: the former
+truth, the mean of MuJoCo's ``gyro`` before each step, missed a 193 s program's final pose by
+294 arcsec). The specific force comes from the site's velocity differenced over each physics step
 (``_Roller._specific_force``: MuJoCo's ``accelerometer`` reads the explicit joint acceleration,
-wrong under ``implicitfast`` while the turntable accelerates), each averaged over the FOG sample
-interval (a FOG outputs angle increments), plus the Earth's rate added analytically (``sim.earth``), averaged over
-the sample in the same way: the world-fixed Earth rate is projected on the sensor axes at every
-physics step (through the mean over the sample of the rotation matrix, which is linear in the
-products of the quaternion's components) and averaged, so a sensor axis that turns 60 deg within
-one sample gets the mean, not the sample-start value. (``gravity``, the reference projection of
-'up', stays the sample-start value, of norm exactly g / G0; the specific force is averaged.)
+wrong under ``implicitfast`` while the turntable accelerates), averaged over the FOG sample
+interval. The Earth's rate is added analytically (``sim.earth``), averaged over the sample in the
+same way: the world-fixed Earth rate is projected on the sensor axes through the mean over the
+sample of the rotation matrix (linear in the products of the quaternion's components; over each
+step the trapezoid of its two poses), so a sensor axis that turns 60 deg within one sample gets
+the mean, not the sample-start value. (``gravity``, the reference projection of 'up', stays the
+sample-start value, of norm exactly g / G0; the specific force is averaged.)
 
 Static holds longer than ``settle_time`` are simulated until the table has settled and then
 continued at the settled state: a table at rest under a constant command stays at rest, and a
@@ -85,11 +94,13 @@ class Truth:
     """Ground truth at the FOG sample rate; arrays of n samples.
 
     t : sample start times, s.  rate : angular rate of the sensor frame w.r.t. inertial space,
-    in sensor axes, averaged over each sample, rad/s, shape (n, 3).  table_rate : the same without
-    the Earth's rate (what MuJoCo's gyro reads), rad/s.  specific_force : accelerometer reading
+    in sensor axes, averaged over each sample (its integral over the sample, the FOG's angle
+    increment, times fs), rad/s, shape (n, 3).  table_rate : the same without the Earth's rate
+    (the table's own motion), rad/s.  specific_force : accelerometer reading
     averaged over each sample, in g (9.80665 m/s^2), shape (n, 3).  gravity : gravity projection on
-    the sensor axes (no motion), in g, shape (n, 3).  tilt, turn : joint angles, rad.
-    tilt_rate, turn_rate : joint rates, rad/s.  tilt_cmd, turn_rate_cmd : commands, rad and rad/s
+    the sensor axes (no motion), in g, shape (n, 3).  tilt, turn : joint angles at each
+    sample's start, rad.  tilt_rate, turn_rate : joint rates averaged over each sample (the
+    angle's change over it times fs), rad/s.  tilt_cmd, turn_rate_cmd : commands, rad and rad/s
     (the tilt at each sample's start, the turntable rate averaged over it; turn_rate_cmd_first:
     the turntable rate command at each sample's start).
     fog_quat, tilt_quat, turntable_quat : body/site orientations (w, x, y, z) in the world frame.

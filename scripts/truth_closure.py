@@ -84,10 +84,6 @@ def main(argv=None):
                 if key in seen:
                     continue
                 seen.add(key)
-                if all(isinstance(s, Hold) and s.tilt in (None, run.tilt0) for s in run.motion) \
-                        and run.duration > 600:
-                    print(f"{path} {run.name}: static hold of {run.duration:g} s, skipped")
-                    continue
                 t0 = time.perf_counter()
                 fs = a.scenario_fs or sc.fs
                 fin, worst, _ = closure(run.motion, fs, sc.table, run.tilt0)

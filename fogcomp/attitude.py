@@ -58,6 +58,7 @@ __all__ = [
     "earth_rate_ned",
     "lab_to_ned",
     "true_attitude",
+    "inertial_attitude",
     "coning_corrected",
     "integrate_attitude",
     "attitude_errors",
@@ -105,6 +106,30 @@ def true_attitude(quat_wxyz: np.ndarray, heading: float) -> Rotation:
     if q.ndim != 2 or q.shape[1] != 4:
         raise ValueError(f"quat_wxyz must have shape (n, 4), got {q.shape}")
     return lab_to_ned(heading) * Rotation.from_quat(q, scalar_first=True)
+
+
+def inertial_attitude(nav_attitude: Rotation, t, latitude: float) -> Rotation:
+    """C^i_b(t) = C^i_e(t) C^e_n C^n_b(t): a local-level attitude history seen from inertial
+    space.
+
+    nav_attitude : Rotation of length n
+        C^n_b (body -> NED) at times ``t``.
+    t : ndarray, shape (n,)
+        Time, s, from the instant the inertial frame coincides with the Earth-fixed frame.
+    latitude : float
+        Geodetic latitude, rad (longitude 0: it only sets where the inertial frame's x points).
+
+    Frames: e, Earth-fixed (x at the lab's meridian in the equator, z the Earth's axis); i, the
+    inertial frame equal to e at t = 0, e turning about z at the Earth's rate:
+    C^i_e(t) = R_z(Omega t). C^e_n holds NED's axes in e: north (-sin L, 0, cos L),
+    east (0, 1, 0), down (-cos L, 0, -sin L). Integrating a body's inertial rate with
+    ``integrate_attitude(..., latitude=None)`` from ``inertial_attitude(...)[0]`` follows this.
+    """
+    t = np.asarray(t, dtype=float)
+    sL, cL = math.sin(latitude), math.cos(latitude)
+    C_en = Rotation.from_matrix(np.array([[-sL, 0.0, -cL], [0.0, 1.0, 0.0], [cL, 0.0, -sL]]))
+    C_ie = Rotation.from_rotvec(np.outer(EARTH_RATE * t, [0.0, 0.0, 1.0]))
+    return C_ie * C_en * nav_attitude
 
 
 def _increments(dtheta) -> np.ndarray:

@@ -16,6 +16,7 @@ from fogcomp.attitude import (
     coning_drift_rate,
     earth_rate_ned,
     gyrocompass,
+    inertial_attitude,
     integrate_attitude,
     orientation_error,
 )
@@ -42,6 +43,20 @@ def test_a_static_body_with_perfect_gyros_keeps_its_attitude():
     C0 = Rotation.from_euler("ZYX", [0.7, 0.1, -0.2])
     est = integrate_attitude(C0, static_increments(C0, lat, fs, n), fs, latitude=lat)
     assert orientation_error(est, Rotation.concatenate([C0] * (n + 1))).max() < 1e-3 * ARCSEC
+
+
+def test_a_static_body_seen_from_inertial_space_turns_with_the_earth():
+    """Integrated without removing the Earth's rate, a static body's gyros give its inertial
+    attitude: the local-level attitude carried round the Earth's axis (an independent route to
+    the Earth-rate handling of the local-level integration)."""
+    lat, fs, n = math.radians(-33.0), 1.0, 6 * 3600
+    C0 = Rotation.from_euler("ZYX", [2.0, -0.3, 0.25])
+    t = np.arange(n + 1) / fs
+    truth = inertial_attitude(Rotation.concatenate([C0] * (n + 1)), t, lat)
+    est = integrate_attitude(truth[0], static_increments(C0, lat, fs, n), fs, latitude=None)
+    # in 6 h the body turned 90 deg about the Earth's axis
+    np.testing.assert_allclose(orientation_error(truth[:1], truth[-1:]), math.pi / 2, rtol=3e-3)
+    assert orientation_error(est, truth).max() < 1e-3 * ARCSEC
 
 
 @pytest.mark.parametrize("heading_deg", [0.0, 120.0])

@@ -63,6 +63,7 @@ __all__ = [
     "integrate_attitude",
     "attitude_errors",
     "orientation_error",
+    "attitude_error_summary",
     "gyrocompass",
     "coning_drift_rate",
 ]
@@ -228,6 +229,30 @@ def attitude_errors(estimate: Rotation, truth: Rotation) -> dict[str, np.ndarray
     return {"roll_error_rad": d[..., 2], "pitch_error_rad": d[..., 1],
             "heading_error_rad": d[..., 0],
             "orientation_error_rad": orientation_error(estimate, truth)}
+
+
+def attitude_error_summary(estimate: Rotation, truth: Rotation, fs: float,
+                           at_s=(60.0, 600.0, 3600.0)) -> dict[str, float]:
+    """Roll, pitch, heading and absolute orientation errors at stated times and their RMS, in
+    degrees (the unit in every key: ``heading_error_deg_at_600s``, ``heading_error_rms_deg``).
+
+    estimate, truth : Rotation of length n + 1, the attitude at t = m / fs, m = 0..n.
+    fs : sample rate, Hz.  at_s : times, s; a time past the record is left out.
+    """
+    if len(estimate) != len(truth):
+        raise ValueError(f"estimate and truth differ in length: {len(estimate)} and "
+                         f"{len(truth)}")
+    err = attitude_errors(estimate, truth)
+    out: dict[str, float] = {}
+    for name, e in err.items():
+        stem = name.removesuffix("_rad")
+        deg = np.degrees(e)
+        for t in at_s:
+            i = int(round(t * fs))
+            if i < len(deg):
+                out[f"{stem}_deg_at_{t:g}s"] = float(deg[i])
+        out[f"{stem}_rms_deg"] = float(np.sqrt(np.mean(deg ** 2)))
+    return out
 
 
 def gyrocompass(rate, specific_force, latitude: float) -> Rotation:

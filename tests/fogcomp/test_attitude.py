@@ -12,6 +12,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from fogcomp.attitude import (
+    attitude_error_summary,
     attitude_errors,
     coning_drift_rate,
     earth_rate_ned,
@@ -206,3 +207,18 @@ def test_bad_input_is_refused():
         integrate_attitude(Rotation.identity(2), np.zeros((5, 3)), 10.0)
     with pytest.raises(ValueError, match="fs"):
         integrate_attitude(Rotation.identity(), np.zeros((5, 3)), 0.0)
+
+
+def test_the_error_summary_reads_the_errors_at_stated_times_in_degrees():
+    fs, n = 10.0, 12_000   # 20 min
+    truth = Rotation.identity(n + 1)
+    t = np.arange(n + 1) / fs
+    drift = math.radians(1.0) / 600.0          # heading drifts 1 deg per 10 min
+    est = Rotation.from_euler("Z", (drift * t)[:, None])
+    s = attitude_error_summary(est, truth, fs)
+    assert s["heading_error_deg_at_60s"] == pytest.approx(0.1)
+    assert s["heading_error_deg_at_600s"] == pytest.approx(1.0)
+    assert "heading_error_deg_at_3600s" not in s           # past the record
+    assert s["heading_error_rms_deg"] == pytest.approx(2.0 / math.sqrt(3), rel=1e-3)
+    assert s["roll_error_rms_deg"] == pytest.approx(0.0, abs=1e-12)
+    assert s["orientation_error_deg_at_600s"] == pytest.approx(1.0)

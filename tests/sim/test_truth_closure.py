@@ -79,3 +79,16 @@ def test_the_truth_is_not_the_rotation_vector_between_bounding_poses():
     spin, tilt_rate = D(200.0) / fs, np.abs(tr.tilt_rate[moving]) / fs
     ratio = gap / (spin ** 2 * tilt_rate / 12.0)
     assert 0.9 < np.median(ratio) < 1.1, np.median(ratio)
+
+
+def test_the_closure_holds_on_a_table_with_a_tilted_turntable_axis_and_an_unlevelled_base():
+    """The turntable's axis tilted toward the platform's x (not normal to the tilt axis: the
+    a (a . v) term of the step integral is not zero) and the base tilted: the poses are still
+    reproduced."""
+    cfg = TableConfig(radius=0.1, turn_axis_error=0.02, level_error=(0.01, -0.015),
+                      latitude=D(-20.0), heading=D(200.0))
+    segs = [Hold(1.0), ConstantRate(12.0, D(90.0), tilt=D(70.0)),
+            Positions(tilts=(D(-40.0),), headings=(D(135.0),), dwell=2.0, move_time=10.0),
+            SineRate(8.0, D(50.0), 0.7, tilt=D(10.0))]
+    err = closure(segs, 200.0, cfg)
+    assert err.max() < 1.0, f"worst {err.max():.3f} arcsec"

@@ -268,7 +268,8 @@ def gyrocompass(rate, specific_force, latitude: float) -> Rotation:
 
     'Down' is aligned exactly (-f), the Earth's rate as well as it can be after that
     (``Rotation.align_vectors`` with the first vector's weight infinite). A residual east gyro
-    bias b_E turns the found north by b_E / (Omega cos L) [3]_: the heading error.
+    bias b_E turns the found north by b_E / (Omega cos L) (Titterton and Weston 2004, section
+    10.2): the heading error.
     """
     w = np.asarray(rate, dtype=float).reshape(3)
     f = np.asarray(specific_force, dtype=float).reshape(3)
@@ -283,7 +284,7 @@ def gyrocompass(rate, specific_force, latitude: float) -> Rotation:
 def coning_drift_rate(cone_angle: float, omega: float, interval: float) -> float:
     """Drift rate about the cone axis of an uncorrected update (phi_m = alpha_m), rad/s.
 
-    Classical coning motion (Savage [1]_, Ignagni [2]_): the attitude C(t) = exp([alpha u(t) x]),
+    Classical coning motion (Savage 1998, Ignagni 1990; module references): the attitude C(t) = exp([alpha u(t) x]),
     u(t) = (cos Omega t, sin Omega t, 0), whose body rate is
 
         omega_b = (-Omega sin(a) sin(Omega t), Omega sin(a) cos(Omega t), -Omega (1 - cos a)).

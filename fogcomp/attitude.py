@@ -35,6 +35,9 @@ the left it is exact for a constant Earth rate. Because E is the same every samp
 C_m = E^m C_0 (exp[phi_1] ... exp[phi_m]); the body product is computed as a prefix product of
 Rotations in log2(n) vectorised rounds.
 
+Static alignment (:func:`gyrocompass`) levels on the specific force and finds north from the
+Earth's rate, with the heading error of a residual east gyro bias of [3]_.
+
 References
 ----------
 .. [1] P. G. Savage, "Strapdown Inertial Navigation Integration Algorithm Design Part 1: Attitude
@@ -42,7 +45,8 @@ References
 .. [2] M. B. Ignagni, "Optimal Strapdown Attitude Integration Algorithms", Journal of Guidance,
    Control, and Dynamics 13(2), 363-369, 1990.
 .. [3] D. H. Titterton and J. L. Weston, "Strapdown Inertial Navigation Technology", 2nd ed.,
-   IEE 2004, section 10.2 (gyrocompassing: heading error = east gyro bias / (Omega cos L)).
+   IEE 2004, chapter 10 (alignment; gyrocompassing: heading error = east gyro bias /
+   (Omega cos L)).
 """
 
 from __future__ import annotations
@@ -268,8 +272,8 @@ def gyrocompass(rate, specific_force, latitude: float) -> Rotation:
 
     'Down' is aligned exactly (-f), the Earth's rate as well as it can be after that
     (``Rotation.align_vectors`` with the first vector's weight infinite). A residual east gyro
-    bias b_E turns the found north by b_E / (Omega cos L) (Titterton and Weston 2004, section
-    10.2): the heading error.
+    bias b_E turns the found north by b_E / (Omega cos L) (Titterton and Weston 2004, chapter
+    10): the heading error.
     """
     w = np.asarray(rate, dtype=float).reshape(3)
     f = np.asarray(specific_force, dtype=float).reshape(3)

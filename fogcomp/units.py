@@ -11,3 +11,4 @@ DPH_PER_H = DEG / 3600.0 / 3600.0   # deg/h/h -> rad/s^2           (rate ramp)
 ARCSEC = DEG / 3600.0               # arcsec -> rad                 (quantisation)
 PPM = 1e-6                          # ppm -> 1
 G0 = 9.80665                        # standard gravity, m/s^2
+EARTH_RATE = 7.2921150e-5           # rad/s, the Earth's rotation rate (WGS-84)

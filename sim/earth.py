@@ -4,7 +4,9 @@ import math
 
 import numpy as np
 
-EARTH_RATE = 7.2921150e-5  # rad/s, WGS-84
+from fogcomp.units import EARTH_RATE  # rad/s, WGS-84
+
+__all__ = ["EARTH_RATE", "earth_rate_world"]
 
 
 def earth_rate_world(latitude: float, heading: float) -> np.ndarray:

@@ -1,16 +1,25 @@
 """The MuJoCo two-axis rate table (``rate_table.xml`` beside this file) and its truth.
 
 The table is driven open-loop by servo commands built from a motion program (``sim.motion``) and
-rolled out with ``mujoco.rollout`` in C. Truth at the FOG is what MuJoCo's ``gyro`` at the FOG
-site reads and the specific force from the site's velocity differenced over each physics step
+rolled out with ``mujoco.rollout`` in C. The true rate at the FOG is what a FOG integrates: the
+integral over the sample interval of the site's body rate, divided by the interval. It is built
+from the physics steps consistently with the poses (``_HingeChain``): MuJoCo's semi-implicit
+Euler moves each hinge across a step by the velocity after the step, so the body rate that carries
+the pose across a step is the one of the joint angles moving linearly between the step's two
+states, and its integral over the step is closed form. Summed over a sample's steps it keeps the
+coning term of a tilt while the turntable turns (it is not the rotation vector between the
+sample's bounding poses), and a strapdown integration of it reproduces the poses to the
+integration algorithm's own order (``tests/sim/test_truth_closure.py``; issue 42: the former
+truth, the mean of MuJoCo's ``gyro`` before each step, missed a 193 s program's final pose by
+294 arcsec). The specific force comes from the site's velocity differenced over each physics step
 (``_Roller._specific_force``: MuJoCo's ``accelerometer`` reads the explicit joint acceleration,
-wrong under ``implicitfast`` while the turntable accelerates), each averaged over the FOG sample
-interval (a FOG outputs angle increments), plus the Earth's rate added analytically (``sim.earth``), averaged over
-the sample in the same way: the world-fixed Earth rate is projected on the sensor axes at every
-physics step (through the mean over the sample of the rotation matrix, which is linear in the
-products of the quaternion's components) and averaged, so a sensor axis that turns 60 deg within
-one sample gets the mean, not the sample-start value. (``gravity``, the reference projection of
-'up', stays the sample-start value, of norm exactly g / G0; the specific force is averaged.)
+wrong under ``implicitfast`` while the turntable accelerates), averaged over the FOG sample
+interval. The Earth's rate is added analytically (``sim.earth``), averaged over the sample in the
+same way: the world-fixed Earth rate is projected on the sensor axes through the mean over the
+sample of the rotation matrix (linear in the products of the quaternion's components; over each
+step the trapezoid of its two poses), so a sensor axis that turns 60 deg within one sample gets
+the mean, not the sample-start value. (``gravity``, the reference projection of 'up', stays the
+sample-start value, of norm exactly g / G0; the specific force is averaged.)
 
 Static holds longer than ``settle_time`` are simulated until the table has settled and then
 continued at the settled state: a table at rest under a constant command stays at rest, and a
@@ -85,11 +94,13 @@ class Truth:
     """Ground truth at the FOG sample rate; arrays of n samples.
 
     t : sample start times, s.  rate : angular rate of the sensor frame w.r.t. inertial space,
-    in sensor axes, averaged over each sample, rad/s, shape (n, 3).  table_rate : the same without
-    the Earth's rate (what MuJoCo's gyro reads), rad/s.  specific_force : accelerometer reading
+    in sensor axes, averaged over each sample (its integral over the sample, the FOG's angle
+    increment, times fs), rad/s, shape (n, 3).  table_rate : the same without the Earth's rate
+    (the table's own motion), rad/s.  specific_force : accelerometer reading
     averaged over each sample, in g (9.80665 m/s^2), shape (n, 3).  gravity : gravity projection on
-    the sensor axes (no motion), in g, shape (n, 3).  tilt, turn : joint angles, rad.
-    tilt_rate, turn_rate : joint rates, rad/s.  tilt_cmd, turn_rate_cmd : commands, rad and rad/s
+    the sensor axes (no motion), in g, shape (n, 3).  tilt, turn : joint angles at each
+    sample's start, rad.  tilt_rate, turn_rate : joint rates averaged over each sample (the
+    angle's change over it times fs), rad/s.  tilt_cmd, turn_rate_cmd : commands, rad and rad/s
     (the tilt at each sample's start, the turntable rate averaged over it; turn_rate_cmd_first:
     the turntable rate command at each sample's start).
     fog_quat, tilt_quat, turntable_quat : body/site orientations (w, x, y, z) in the world frame.
@@ -177,6 +188,88 @@ def _quat_rotate_inv(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     return np.einsum("nji,nj->ni", R, v)
 
 
+def _quat_mat(q) -> np.ndarray:
+    m = np.empty(9)
+    mujoco.mju_quat2Mat(m, np.asarray(q, dtype=float))
+    return m.reshape(3, 3)
+
+
+class _HingeChain:
+    """The sensor site's angle increment over each physics step, from its two hinge joints.
+
+    The site hangs from an outer hinge (the tilt) carrying an inner hinge (the turntable), with
+    fixed bodies between. MuJoCo's semi-implicit Euler moves a hinge's angle across a step by
+    ``qvel[j+1] dt`` (the velocity after the step), linearly, so over the step the inner angle is
+    phi(s) = phi0 + s dphi and the outer theta(s) = theta0 + s dtheta, s in [0, 1]. The body rate
+    of the inner body along that path, in its own axes, is
+
+        omega = dphi/dt a + dtheta/dt R_a(phi(s))^T P^T e
+
+    (a: inner axis in the inner body; e: outer axis in the outer body; P: the inner body's frame
+    at phi = 0 in the outer body's). Its integral over the step is closed form, with
+    phi_m = phi0 + dphi / 2 and S = sin(dphi / 2) / (dphi / 2):
+
+        dphi a + dtheta [v cos(phi_m) S - (a x v) sin(phi_m) S + a (a.v) (1 - cos(phi_m) S)],
+        v = P^T e,
+
+    rotated into the site's axes (C^T, C: the site's frame in the inner body's). Summed over a
+    sample's steps this is what a FOG integrates: it carries the poses exactly (not the rotation
+    vector between them: the coning term of a tilt while turning stays in).
+    """
+
+    def __init__(self, model, site: str = "fog_site"):
+        sid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, site)
+        C = _quat_mat(model.site_quat[sid])
+        body = int(model.site_bodyid[sid])
+        joints = []   # (joint id, rotation from the joint's body to the body below the chain)
+        R = C
+        while body != 0:
+            n = int(model.body_jntnum[body])
+            if n > 1 or (n == 1 and model.jnt_type[model.body_jntadr[body]]
+                         != mujoco.mjtJoint.mjJNT_HINGE):
+                raise RuntimeError(f"{MODEL_PATH}: body {body} of the sensor's chain must have "
+                                   f"at most one hinge joint")
+            if n == 1:
+                joints.append((int(model.body_jntadr[body]), R))
+                R = np.eye(3)
+            R = _quat_mat(model.body_quat[body]) @ R
+            body = int(model.body_parentid[body])
+        if len(joints) != 2:
+            raise RuntimeError(f"{MODEL_PATH}: the sensor must hang from two hinges, found "
+                               f"{len(joints)}")
+        (inner, C_inner), (outer, _) = joints
+        # P: the inner body's frame (phi = 0) in the outer body's: body_quat of the inner body
+        # and of the fixed bodies between the two joints
+        P = np.eye(3)
+        b = int(model.jnt_bodyid[inner])
+        chain = []
+        while b != int(model.jnt_bodyid[outer]):
+            chain.append(_quat_mat(model.body_quat[b]))
+            b = int(model.body_parentid[b])
+        for M in reversed(chain):
+            P = P @ M
+        self.C_T = C_inner.T
+        self.a = model.jnt_axis[inner] / np.linalg.norm(model.jnt_axis[inner])
+        e = model.jnt_axis[outer] / np.linalg.norm(model.jnt_axis[outer])
+        self.v = P.T @ e
+        self.inner_q, self.outer_q = int(model.jnt_qposadr[inner]), int(model.jnt_qposadr[outer])
+
+    def increments(self, q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
+        """Angle increment of the site across each step, site axes, rad, shape (m, 3), from the
+        joint positions before (q0) and after (q1) each step, shape (m, nq)."""
+        phi0 = q0[:, self.inner_q]
+        dphi = q1[:, self.inner_q] - phi0
+        dth = q1[:, self.outer_q] - q0[:, self.outer_q]
+        phim = phi0 + 0.5 * dphi
+        S = np.sinc(dphi / (2 * np.pi))          # numpy's sinc(x) = sin(pi x) / (pi x)
+        cS, sS = np.cos(phim) * S, np.sin(phim) * S
+        a, v = self.a, self.v
+        axv = np.cross(a, v)
+        mean_v = (np.outer(cS, v) - np.outer(sS, axv) + np.outer(1.0 - cS, a * (a @ v)))
+        inc = np.outer(dphi, a) + dth[:, None] * mean_v
+        return inc @ self.C_T.T
+
+
 class _Roller:
     """Rolls the model out chunk by chunk, carrying the state, reducing to FOG samples at once.
 
@@ -189,6 +282,9 @@ class _Roller:
 
     def __init__(self, model, k: int, quat: slice, linvel: slice):
         self.model, self.k, self.quat, self.linvel = model, k, quat, linvel
+        self.chain = _HingeChain(model)
+        self.incs: list[np.ndarray] = []   # per sample: site angle increment, rad, (3,)
+        self.dq: list[np.ndarray] = []     # per sample: joint position change, rad, (nq,)
         self.fmeans: list[np.ndarray] = []  # per sample: mean specific force, sensor axes, m/s^2
         self.scratch = mujoco.MjData(model)
         self.qq: list[np.ndarray] = []  # per sample: mean over its steps of q_i q_j, (4, 4)
@@ -224,22 +320,38 @@ class _Roller:
             c = ctrl[a:a + step]
             st, sd = rollout.rollout(self.model, self.data, self.state[None], c[None])
             ns = len(c) // k
-            sd = sd[0].reshape(ns, k, -1)
+            nq, nv = self.model.nq, self.model.nv
+            end = self._sensors_of(st[0, -1])
+            # the steps' joint positions before and after (rollout's state j is after step j)
+            qa = st[0, :, 1:1 + nq]
+            qb = np.vstack([self.state[None, 1:1 + nq], qa[:-1]])
+            self.incs.append(self.chain.increments(qb, qa).reshape(ns, k, 3).sum(axis=1))
+            self.dq.append(qa[k - 1::k] - qb[::k])
+            flat = sd[0]
+            sd = flat.reshape(ns, k, -1)
             self.means.append(sd.mean(axis=1))
             self.firsts.append(sd[:, 0].copy())
+            # mean of R over each step by the trapezoid of its two poses (for the Earth's rate)
             q = sd[:, :, self.quat]
-            self.qq.append(np.einsum("nki,nkj->nij", q, q) / k)
-            self.fmeans.append(self._specific_force(sd.reshape(ns * k, -1), st[0, -1]))
+            q_after = np.vstack([flat[1:, self.quat], end[None, self.quat]]).reshape(ns, k, 4)
+            self.qq.append((np.einsum("nki,nkj->nij", q, q)
+                            + np.einsum("nki,nkj->nij", q_after, q_after)) / (2 * k))
+            self.fmeans.append(self._specific_force(flat, end))
             cc = c[:, [0, 2]].reshape(ns, k, -1)
             self.ctrl_means.append(cc.mean(axis=1))
             self.ctrl_firsts.append(cc[:, 0].copy())
-            nq, nv = self.model.nq, self.model.nv
             vmax = float(np.max(np.abs(st[0, -k:, 1 + nq:1 + nq + nv])))
             self.state = st[0, -1].copy()
         self.steps += n
         return vmax
 
-    def _specific_force(self, sd: np.ndarray, final_state: np.ndarray) -> np.ndarray:
+    def _sensors_of(self, state: np.ndarray) -> np.ndarray:
+        """The sensors of a state (e.g. the chunk's final one, which no step reports)."""
+        mujoco.mj_setState(self.model, self.scratch, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+        mujoco.mj_forward(self.model, self.scratch)
+        return self.scratch.sensordata.copy()
+
+    def _specific_force(self, sd: np.ndarray, end: np.ndarray) -> np.ndarray:
         """Mean specific force over each sample of the chunk's steps, in sensor axes, m/s^2.
 
         The site's world velocity differenced over each physics step, (v[j+1] - v[j]) / dt, is
@@ -250,10 +362,6 @@ class _Roller:
         acceleration, which under ``implicitfast`` and the stiff rate servo is not the one the
         table has (0.50 g tangential where alpha r is 0.036 g at 200 deg/s^2 and 0.1 m).
         """
-        mujoco.mj_setState(self.model, self.scratch, final_state,
-                           mujoco.mjtState.mjSTATE_FULLPHYSICS)
-        mujoco.mj_forward(self.model, self.scratch)
-        end = self.scratch.sensordata
         v = np.vstack([sd[:, self.linvel], end[self.linvel][None]])
         q = np.vstack([sd[:, self.quat], end[self.quat][None]])
         q1 = q[1:] * np.where(np.sum(q[1:] * q[:-1], axis=1) < 0, -1.0, 1.0)[:, None]
@@ -266,14 +374,15 @@ class _Roller:
     def repeat_last(self, ns: int, dt_total: float):
         """Continue the settled state for ``ns`` more samples (time advances, nothing moves)."""
         for lst in (self.means, self.firsts, self.ctrl_means, self.ctrl_firsts, self.qq,
-                    self.fmeans):
+                    self.fmeans, self.incs, self.dq):
             lst.append(np.repeat(lst[-1][-1:], ns, axis=0))
         self.state[0] += dt_total
 
     def collect(self):
         return (np.concatenate(self.means), np.concatenate(self.firsts),
                 np.concatenate(self.ctrl_means), np.concatenate(self.ctrl_firsts),
-                np.concatenate(self.qq), np.concatenate(self.fmeans))
+                np.concatenate(self.qq), np.concatenate(self.fmeans),
+                np.concatenate(self.incs), np.concatenate(self.dq))
 
 
 def _mean_rotation(qq: np.ndarray) -> np.ndarray:
@@ -338,9 +447,9 @@ def simulate_truth(segments, fs: float, cfg: TableConfig = TableConfig(), tilt0:
         if progress is not None:
             progress(done / total)
 
-    means, firsts, cmean, cfirst, qq, fmean = roller.collect()
+    means, firsts, cmean, cfirst, qq, fmean, incs, dq = roller.collect()
     ns = means.shape[0]
-    table_rate = means[:, sl["fog_gyro"]]
+    table_rate = incs * fs   # the site's angle increment over each sample, as a rate
     fog_quat = firsts[:, sl["fog_quat"]]
     R_mean = _mean_rotation(qq)   # mean over each sample of R (sensor -> world)
     world_up = np.broadcast_to([0.0, 0.0, cfg.gravity / G0], (ns, 3))
@@ -353,7 +462,7 @@ def simulate_truth(segments, fs: float, cfg: TableConfig = TableConfig(), tilt0:
         t=np.arange(ns) / fs, fs=fs, rate=rate, table_rate=table_rate,
         specific_force=fmean / G0, gravity=gravity,
         tilt=firsts[:, sl["tilt_angle"]][:, 0], turn=firsts[:, sl["turn_angle"]][:, 0],
-        tilt_rate=means[:, sl["tilt_rate"]][:, 0], turn_rate=means[:, sl["turn_rate"]][:, 0],
+        tilt_rate=dq[:, roller.chain.outer_q] * fs, turn_rate=dq[:, roller.chain.inner_q] * fs,
         tilt_cmd=cfirst[:, 0], turn_rate_cmd=cmean[:, 1] / drive,
         fog_quat=fog_quat, tilt_quat=firsts[:, sl["tilt_quat"]],
         turntable_quat=firsts[:, sl["turntable_quat"]], fog_pos=firsts[:, sl["fog_pos"]],

@@ -113,8 +113,13 @@ def test_paper000s_filter_oracle_keeps_its_value():
     quantisation: its model): the values it had before the rule, replicate 0."""
     res = run_scenario(SCENARIOS / "paper000_wnn.toml", methods=["kalman"])
     runs = res.metrics["protocols"]["held_out"]["runs"]
-    before = {"test_m60": 151.4904873682423, "test_m30": 188.11577092432987,
-              "test_m90": 303.48749555537995}
+    # issue 42's truth (the rate integrated over each sample, moving with the poses) changed
+    # them from 151.4904873682423, 188.11577092432987 and 303.48749555537995: the truth after
+    # the 2 s skip is the same to 0.006 deg/h, but the spin-up before it moved by up to
+    # alpha dt (0.2 deg/s, the old truth's one-step lag): the filter runs through it, and the
+    # quantiser's carried angle differs after it (raw's RMSE: 371.00 -> 370.51 deg/h)
+    before = {"test_m60": 156.28511943276885, "test_m30": 185.0071054751384,
+              "test_m90": 295.378218912646}
     for run, rmse in before.items():
         assert runs[run]["oracle_filter"]["rmse_dph"] == pytest.approx(rmse, rel=1e-6), run
     assert all(not it.piece.unmodelled for it in res.scored)

@@ -36,10 +36,14 @@ def program():
 
 def _settled(truth, tol=1e-7):
     """Samples where the tilt command holds still, the tilt has settled after its move (joint
-    rate below 1e-4 rad/s) and the turntable follows its rate command (error below ``tol``)."""
+    rate below 1e-4 rad/s), the turntable's rate command is constant (a dwell or a plateau, not
+    a ramp) and the turntable follows it (error below ``tol``). (Before issue 42 the truth's
+    joint rate lagged the command by a physics step, which kept ramps out by itself; the truth's
+    rate now moves with the poses and follows a ramp to 1e-7, so ramps are left out here.)"""
     err = np.abs(truth.turn_rate - truth.turn_rate_cmd)
     still = np.abs(np.diff(truth.tilt_cmd, append=truth.tilt_cmd[-1])) == 0
-    return (err < tol) & still & (np.abs(truth.tilt_rate) < 1e-4)
+    plateau = np.abs(np.gradient(truth.turn_rate_cmd)) == 0
+    return (err < tol) & still & plateau & (np.abs(truth.tilt_rate) < 1e-4)
 
 
 def test_on_a_perfect_settled_table_the_lab_reference_is_the_truth_to_the_servos_error(program):
@@ -70,7 +74,9 @@ def test_on_a_perfect_settled_table_the_lab_reference_is_the_truth_to_the_servos
     lever = math.hypot(cfg.height, cfg.radius)
     tilt_acc = np.abs(np.gradient(truth.tilt_rate)) * truth.fs * lever / 9.80665
     assert np.all(df[ok] <= att[ok] * 1.01 + 2 * tilt_acc[ok] + 1e-6)
-    assert att[ok].max() > 1e-5          # the servo's error is there, and bounded by the above
+    # the servo's error is there, and bounded by the above (since issue 42 the turntable's angle
+    # loop is 10 x stiffer: its sag at tilt 90, m g r / kp, is 5.9e-6 rad here, was 5.9e-5)
+    assert att[ok].max() > 5e-6
     # at rest before the table first moves (the FOG on the tilt axis' line: no sag) the lab
     # reference is the truth to rounding
     assert np.max(np.abs(rate[:290] - truth.rate[:290])) < 1e-15

@@ -34,18 +34,21 @@ def test_earth_rate_in_a_tilted_turning_frame_is_the_mean_over_each_sample(tilt_
     earth_part = tr.rate - tr.table_rate
     w_world = earth_in_world(lat, heading)
     k0 = int(6.0 * fs)   # from 3 s into the spin: at constant rate
-    # the truth is the mean over the sample's physics steps (dt = 1 ms: the states at j dt)
-    nsub = int(round(1.0 / fs / cfg.physics_dt))
-    sub = np.arange(nsub) / (fs * nsub)
+    # the truth is the mean over the sample interval [k/fs, (k+1)/fs] (what a FOG integrates),
+    # here by the trapezoid on a grid 4 times finer than the physics step
+    nsub = 4 * int(round(1.0 / fs / cfg.physics_dt))
+    sub = np.arange(nsub + 1) / (fs * nsub)
+    wts = np.full(nsub + 1, 1.0 / nsub)
+    wts[[0, -1]] *= 0.5
     for k in range(k0, tr.t.size):
         # start orientation from MuJoCo's quaternion (scipy wants x, y, z, w); within the sample
-        # the FOG turns about its own z at the joint's mean rate
+        # the FOG turns about its own z at the joint's mean rate (its angle change over it)
         q = tr.fog_quat[k]
         R0 = Rotation.from_quat([q[1], q[2], q[3], q[0]])
         rates = tr.turn_rate[k]
         Rs = R0 * Rotation.from_rotvec(np.outer(sub * rates, [0.0, 0.0, 1.0]))
         v = Rs.inv().apply(w_world)               # Earth rate in sensor axes at each instant
-        mean = v.mean(axis=0)
+        mean = wts @ v
         np.testing.assert_allclose(earth_part[k], mean, atol=2e-4 * OMEGA_E, err_msg=f"k={k}")
     # the sample-start projection would be wrong by several deg/h on x/y here
     start = np.array([Rotation.from_quat([q[1], q[2], q[3], q[0]]).inv().apply(w_world)

@@ -226,9 +226,10 @@ def _check_static(acc: np.ndarray, fs: float, where: str) -> None:
 def _plot(path_tmp: str, title: str, fs: float, res: dict, t_cal: float) -> None:
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(3, 1, figsize=(8, 7), sharex=True)
-    for ax, key, label in zip(axes, ("roll_error_rad", "pitch_error_rad", "heading_error_rad"),
-                              ("roll", "pitch", "heading")):
+    fig, axes = plt.subplots(4, 1, figsize=(8, 9), sharex=True)
+    for ax, key, label in zip(axes, ("roll_error_rad", "pitch_error_rad", "heading_error_rad",
+                                     "orientation_error_rad"),
+                              ("roll", "pitch", "heading", "orientation")):
         raw, cal = res["raw"][key], res["calibrated"][key]
         ax.plot(np.arange(len(raw)) / fs / 60.0, np.degrees(raw), lw=0.8, label="raw")
         ax.plot((t_cal + np.arange(len(cal)) / fs) / 60.0, np.degrees(res["calibrated"][key]), lw=0.8,

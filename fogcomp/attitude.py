@@ -161,15 +161,33 @@ def coning_corrected(dtheta, previous=None) -> np.ndarray:
     return a + np.cross(prev, a) / 12.0
 
 
-def _prefix_product(r: Rotation) -> Rotation:
-    """P_i = r_0 r_1 ... r_i for a Rotation of length n (Hillis-Steele scan, log2 n rounds)."""
+def _prefix_product(r: Rotation, block: int = 1024) -> Rotation:
+    """P_i = r_0 r_1 ... r_i for a Rotation of length n, in blocks: the running product within
+    each block of ``block`` samples (one Rotation product over all blocks per step), the blocks'
+    totals chained, then one product over all samples: about 2 sqrt-ish sweeps of small products
+    and one of n, where a scan over n in log2 n rounds cost 20 products of n (scipy's product
+    of n Rotations is the cost: 0.7 s per million here)."""
     q = r.as_quat()
-    n, step = len(q), 1
-    while step < n:
-        head = Rotation.from_quat(q[:-step]) * Rotation.from_quat(q[step:])
-        q = np.vstack([q[:step], head.as_quat()])
-        step *= 2
-    return Rotation.from_quat(q)
+    n = len(q)
+    if n <= 1:
+        return Rotation.from_quat(q)
+    b = max(1, min(int(block), n))
+    k = -(-n // b)                                   # blocks
+    pad = k * b - n
+    qq = np.vstack([q, np.tile([0.0, 0.0, 0.0, 1.0], (pad, 1))]).reshape(k, b, 4)
+    run = np.empty_like(qq)
+    run[:, 0] = qq[:, 0]
+    for i in range(1, b):                            # within every block at once
+        run[:, i] = (Rotation.from_quat(run[:, i - 1]) * Rotation.from_quat(qq[:, i])).as_quat()
+    totals = Rotation.from_quat(run[:, -1])
+    lead = np.empty((k, 4))
+    lead[0] = [0.0, 0.0, 0.0, 1.0]
+    acc = Rotation.identity()
+    for j in range(1, k):                            # the product of the blocks before each
+        acc = acc * totals[j - 1]
+        lead[j] = acc.as_quat()
+    out = Rotation.from_quat(np.repeat(lead, b, axis=0)) * Rotation.from_quat(run.reshape(-1, 4))
+    return out[:n]
 
 
 def integrate_attitude(initial: Rotation, dtheta, fs: float, latitude: float | None = None,

@@ -2,8 +2,8 @@
 calling the function that does the work with plain arguments.
 
 Commands: ``simulate``, ``run``, ``check``, ``suite``, ``view``, ``bench``, ``check-method``
-(the bench's scenarios and methods); ``allan``, ``calibrate``, ``compensate`` (a user's own
-logs); ``device show|schema|fit|check`` (device files); ``compare`` (every method across
+(the bench's scenarios and methods); ``allan``, ``calibrate``, ``compensate``, ``attitude`` (a user's
+own logs); ``device show|schema|fit|check`` (device files); ``compare`` (every method across
 scenarios). Bad input ends with one ``fogbench: error: ...`` line on stderr and status 2; Ctrl-C
 and SIGTERM with one line and 130 / 143, leaving no half-written file.
 """
@@ -30,7 +30,7 @@ __all__ = ["main", "build_parser"]
 
 #: The command modules, in the order ``fogbench --help`` lists them.
 COMMANDS = ("simulate", "run", "check", "suite", "view", "bench", "check_method", "allan",
-            "calibrate", "compensate", "device", "compare")
+            "calibrate", "compensate", "attitude", "device", "compare")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -660,8 +660,8 @@ class Bp(Compensator):
     @classmethod
     def fit_starts(cls, models: list, data: GyroData, reference_rate=None) -> list:
         """Gradient-descent starts trained together (issue 43): each start's checks,
-        normalisation and initial weights (its ant colony or random search) as in :meth:`fit`,
-        then the K descents as one array program (:func:`_train_gd_many`: the same epochs,
+        normalisation and initial weights (its ant colony or random search) as in ``fit``,
+        then the K descents as one array program (``_train_gd_many``: the same epochs,
         stops and divergence checks as each start's own loop, to float32 rounding), then each
         start's learned attributes and warnings. Levenberg-Marquardt starts, or starts whose
         settings differ beyond their seed, are fitted one by one (an LM epoch is most of its

@@ -4,7 +4,7 @@ intervals, the identified noise terms, figures, and Kalibr / OpenVINS noise file
 
 from __future__ import annotations
 
-from fogbench.cli._common import add_log_flags, options
+from fogbench.cli._common import add_log_flags, number, options
 from fogbench.console import warnings_as_lines
 
 
@@ -36,10 +36,12 @@ def add_parser(sub) -> None:
                    "OpenVINS' kalibr_imu_chain.yaml")
     a.add_argument("--imu-topic", default="/imu0", help="rostopic written in --kalibr and "
                    "--openvins (default /imu0)")
-    a.add_argument("--inflate-density", type=float, default=1.0, help="multiply the noise "
-                   "densities written by this factor (default 1: none; stated in the file)")
-    a.add_argument("--inflate-walk", type=float, default=1.0, help="multiply the random walks "
-                   "written by this factor (default 1: none; stated in the file)")
+    a.add_argument("--inflate-density", type=number(float, 0.0, lo_open=True), default=1.0,
+                   help="multiply the noise densities written by this factor, > 0 (default 1: "
+                   "none; stated in the file)")
+    a.add_argument("--inflate-walk", type=number(float, 0.0, lo_open=True), default=1.0,
+                   help="multiply the random walks written by this factor, > 0 (default 1: "
+                   "none; stated in the file)")
     a.add_argument("--consistency", action="store_true", help="identify the noise model on "
                    "the first part of the log, run the Kalman filter it implies (and Kalibr's "
                    "N + K filter) over the rest, and measure the inflation factor that makes "

@@ -276,7 +276,7 @@ def allan(opts: AllanOptions) -> int:
 
         # the results are named gyro_x_<unit>: the channel is gyro_x
         cons = measure(log, ["_".join(n.split("_")[:2]) for n, _, _, _ in results],
-                       opts.holdout, opts.log)
+                       opts.holdout, opts.log, strict=opts.inflate_measured)
     tool_texts = _tool_texts(tool_files, opts, {n: m for n, _, m, _ in results}, acc_models,
                              fs, src, cons)
     doc = _allan_doc(meta, results)

@@ -232,7 +232,7 @@ def _plot(path_tmp: str, title: str, fs: float, res: dict, t_cal: float) -> None
                               ("roll", "pitch", "heading", "orientation")):
         raw, cal = res["raw"][key], res["calibrated"][key]
         ax.plot(np.arange(len(raw)) / fs / 60.0, np.degrees(raw), lw=0.8, label="raw")
-        ax.plot((t_cal + np.arange(len(cal)) / fs) / 60.0, np.degrees(res["calibrated"][key]), lw=0.8,
+        ax.plot((t_cal + np.arange(len(cal)) / fs) / 60.0, np.degrees(cal), lw=0.8,
                 label=f"bias from the first {t_cal:g} s")
         ax.set_ylabel(f"{label} error, deg")
         ax.grid(alpha=0.3)
@@ -291,9 +291,16 @@ def attitude(opts: AttitudeOptions) -> int:
     n_align = min(n, max(1, int(round(opts.align_s * fs))))
     n_cal = int(round((opts.calibrate_s if opts.calibrate_s is not None else 0.2 * n / fs) * fs))
     window_n = int(round(opts.window_s * fs))
-    if not 0 < n_cal < n:
-        raise LogError(f"--calibrate-s: {opts.calibrate_s:g} s leaves nothing to score in a "
+    cal_s = n_cal / fs if opts.calibrate_s is None else opts.calibrate_s
+    if n_cal < 1:
+        raise LogError(f"--calibrate-s: {cal_s:g} s is shorter than one sample "
+                       f"({1 / fs:g} s at {fs:g} Hz)")
+    if n_cal >= n:
+        raise LogError(f"--calibrate-s: {cal_s:g} s leaves nothing to score in a "
                        f"{n / fs:g} s log")
+    if window_n < 1:
+        raise LogError(f"--window-s: {opts.window_s:g} s is shorter than one sample "
+                       f"({1 / fs:g} s at {fs:g} Hz)")
     if window_n > n - n_cal:
         raise LogError(f"--window-s: {opts.window_s:g} s is longer than the scored part "
                        f"({(n - n_cal) / fs:g} s after the bias's {n_cal / fs:g} s)")

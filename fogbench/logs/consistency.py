@@ -18,6 +18,8 @@ NIS does not depend on it beyond the first samples.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from fogbench.formats.errors import LogError
@@ -40,9 +42,12 @@ def _kalibr_model(nm, fs):
     return BiasFilterModel(fs=fs, N=value("N"), K=value("K"), label="kalibr (N + K)")
 
 
-def measure(log, chans, holdout: float, path) -> dict:
+def measure(log, chans, holdout: float, path, strict: bool = False) -> dict:
     """{channel name: {"held": HeldOut, "kalibr": InflationResult, "kalibr_model":
-    BiasFilterModel}} of each gyro channel of ``log``."""
+    BiasFilterModel}} of each gyro channel of ``log``. A channel the filter cannot be run on
+    is {"error": why} with a warning (the Allan analysis is kept), or, ``strict`` (a factor is
+    to be written), refused."""
+    from fogbench.console import warn
     from fogcomp.consistency import held_out, inflation_factor
 
     out = {}
@@ -56,9 +61,20 @@ def measure(log, chans, holdout: float, path) -> dict:
             pieces = [y[max(a, h.split):b] for a, b in segs if b - max(a, h.split) >= 64]
             kr = inflation_factor(km, pieces, terms="all", grid=GRID)
         except ValueError as exc:
-            raise LogError(f"{path}: column {log.sources[ch]!r}: --consistency: {exc}") from None
+            msg = f"{path}: column {log.sources[ch]!r}: --consistency: {exc}"
+            if strict:
+                raise LogError(msg + " (--inflate-measured needs a factor for every gyro "
+                               "column)") from None
+            warn(msg + "; its Allan analysis is kept")
+            out[f"{ch}_{log.units[ch]}"] = {"error": str(exc)}
+            continue
         out[f"{ch}_{log.units[ch]}"] = {"held": h, "kalibr": kr, "kalibr_model": km}
     return out
+
+
+def _measured(results: dict) -> dict:
+    """The columns whose consistency was measured."""
+    return {k: r for k, r in results.items() if "error" not in r}
 
 
 def _res_json(r) -> dict:
@@ -76,6 +92,9 @@ def consistency_json(results: dict, holdout: float) -> dict:
     """The ``consistency`` entry of allan.json for each column."""
     out = {}
     for name, r in results.items():
+        if "error" in r:
+            out[name] = {"holdout_fraction": holdout, "error": r["error"]}
+            continue
         h = r["held"]
         out[name] = {"holdout_fraction": holdout, "split_sample": h.split,
                      "n_identified": h.n_fit, "n_held_out": h.n_held,
@@ -102,6 +121,9 @@ def lines(results: dict) -> list[str]:
            "coefficient that makes the block NIS consistent, [95 % interval by chi-square "
            "test inversion, Bonferroni over block lengths])"]
     for name, r in results.items():
+        if "error" in r:
+            out.append(f"  {name:14s} not measured: {r['error']}")
+            continue
         h = r["held"]
         fs = h.noise_model.fs
         for label, res in (("identified model", h.inflation["all"]),
@@ -121,8 +143,22 @@ def lines(results: dict) -> list[str]:
 
 def measured_factor(results: dict) -> float:
     """The factor written by --inflate-measured: the largest over the columns of the Kalibr
-    model's smallest consistent factor (its interval's lower end), at least 1."""
-    return max(1.0, max(r["kalibr"].f_low for r in results.values()))
+    model's smallest consistent factor (its interval's lower end), at least 1. Refused (a
+    LogError naming the column) where a column has none: not measured, not finite, or beyond
+    the factor grid (no factor on it makes the filter consistent)."""
+    lows = []
+    for name, r in results.items():
+        if "error" in r:
+            raise LogError(f"--inflate-measured: column {name}: no factor was measured "
+                           f"({r['error']})")
+        k = r["kalibr"]
+        if not math.isfinite(k.f_low) or k.flags.get("f_low") == ">":
+            raise LogError(f"--inflate-measured: column {name}: no factor up to "
+                           f"{GRID[-1]:g} makes Kalibr's N + K filter consistent (lower end "
+                           f"{_fmt(k)}); the model's shape is wrong, not only its size: "
+                           "write the identified values (leave out --inflate-measured)")
+        lows.append(k.f_low)
+    return max(1.0, max(lows))
 
 
 def file_notes(results: dict, holdout: float) -> list[str]:
@@ -132,9 +168,13 @@ def file_notes(results: dict, holdout: float) -> list[str]:
            "rest; factor = smallest inflation of N and K",
            "that makes the NIS consistent at every block length (chi-square, 95 %, "
            "Bonferroni); [interval] by test inversion:"]
-    for name, r in results.items():
+    for name, r in _measured(results).items():
         out.append(f"  {name}: {_fmt(r['kalibr'])}; identified model (with its "
                    f"Gauss-Markov / flicker states): {_fmt(r['held'].inflation['all'])}")
-    out.append(f"  measured factor (the largest over the axes, at least 1): "
-               f"{measured_factor(results):.3g}")
+    if len(_measured(results)) == len(results):
+        try:
+            out.append(f"  measured factor (the largest over the axes, at least 1): "
+                       f"{measured_factor(results):.3g}")
+        except LogError as exc:
+            out.append(f"  no measured factor: {exc}")
     return out

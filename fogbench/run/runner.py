@@ -371,9 +371,22 @@ def _fit_key(ms, seed, piece: Piece) -> tuple:
     return ms.name, params, seed, h.hexdigest()
 
 
-def _reuse(entry) -> tuple | None:
-    """A copy of an earlier fit (record, model) with the same key, or None (none, or a model
-    that cannot be copied: then it is fitted again)."""
+def _keep(fitted: dict, key, protocol: str, rec: dict, model) -> None:
+    """Keep a fit for later protocols (:func:`_fit_key`): a copy taken before it scores
+    anything (a plug-in whose ``compensate`` changes its own state would otherwise hand the
+    next protocol another model than a refit), and only a fit that succeeded (a failure, a
+    time limit above all, is not a property of the bytes)."""
+    if model is None or rec.get("status") != "ok":
+        return
+    try:
+        fitted[key] = (protocol, copy.deepcopy(rec), copy.deepcopy(model))
+    except Exception:   # a plug-in's model that does not copy: the next protocol fits again
+        pass
+
+
+def _reuse(entry, fit_sel, score_sel) -> tuple | None:
+    """A copy of an earlier protocol's fit (record, model) with the same key, the record
+    saying where it comes from and what it is scored on here; or None (none kept)."""
     if entry is None:
         return None
     first, rec, model = entry
@@ -382,6 +395,8 @@ def _reuse(entry) -> tuple | None:
     except Exception:   # a plug-in's model that does not copy: fit it again
         return None
     rec = copy.deepcopy(rec)
+    rec["fit_on"] = [s.describe() for s in fit_sel]
+    rec["scored_on"] = [s.describe() for s in score_sel]
     rec["fit_reused_from"] = first
     return rec, model
 
@@ -409,14 +424,14 @@ def _run_protocol(prot, sc, plan, data: dict, axis_j: int, lab_refs: dict, repli
             seeds = [method_seed(sc, plan, prot, ms, fit_sel, replicate, k) if seeded else None
                      for k in range(method_seeds if seeded else 1)]
             keys = [_fit_key(ms, seed, fit_piece) for seed in seeds]
-            done = [_reuse(fitted.get(key)) for key in keys]
+            done = [_reuse(fitted.get(key), fit_sel, score_sel) for key in keys]
             new = [k for k, d in enumerate(done) if d is None]
             if new:
                 made = _fit_many(ms, [seeds[k] for k in new], fit_piece, fit_sel, score_sel,
                                  plan.fit_timeout_s)
                 for k, (rec, model) in zip(new, made):
                     done[k] = rec, model
-                    fitted[keys[k]] = (prot.name, rec, model)
+                    _keep(fitted, keys[k], prot.name, rec, model)
             for k, (rec, model) in enumerate(done):
                 _score_fit(model, rec, items, ms.label, k == 0, seeded and method_seeds > 1,
                            data, axis_j, plan.fit_timeout_s)
@@ -587,11 +602,11 @@ def _fit(ms, seed, fit_piece: Piece, fit_sel, score_sel, timeout_s: float | None
 def _fit_many(ms, seeds: list, fit_piece: Piece, fit_sel, score_sel,
               timeout_s: float | None = None) -> list:
     """Make and fit one method at each seed (a random method's starts, None for one fit of a
-    deterministic method): [(record, model or None)], a failure recorded, never raised. Two
-    or more starts go to the method's ``fit_starts`` (trained together where the method can:
-    the same models as one by one); the time limit then holds for each start on average
-    (K times ``timeout_s`` for the K), and each record's ``fit_time_s`` is the call's time over
-    K."""
+    deterministic method): [(record, model or None)], a failure recorded, never raised. A
+    method that trains its starts together (its class overrides ``fit_starts``: the same models
+    as one by one) gets them in one call, under K times ``timeout_s`` (a start that hangs then
+    fails them all), each record's ``fit_time_s`` the call's time over K; any other method
+    fits each start alone under its own limit."""
     recs = []
     for seed in seeds:
         rec = {"fit_on": [s.describe() for s in fit_sel],
@@ -604,6 +619,9 @@ def _fit_many(ms, seeds: list, fit_piece: Piece, fit_sel, score_sel,
             rec.update(status="failed", error=ms.failed, warnings=[])
         return [(rec, None) for rec in recs]
     K = len(seeds)
+    if K > 1 and _fits_one_by_one(ms):
+        return [_fit_many(ms, [seed], fit_piece, fit_sel, score_sel, timeout_s)[0]
+                for seed in seeds]
     outcomes, models = None, [None] * K
     label = f"{ms.label}: fit" + (f" ({K} starts)" if K > 1 else "")
     with warnings.catch_warnings(record=True) as caught:
@@ -649,6 +667,16 @@ def _fit_many(ms, seeds: list, fit_piece: Piece, fit_sel, score_sel,
             _learned(rec, model)
         out.append((rec, model))
     return out
+
+
+def _fits_one_by_one(ms) -> bool:
+    """True when the method's class does not train its starts together (its ``fit_starts`` is
+    the default): each start is then fitted alone, under its own time limit."""
+    try:
+        cls = fogcomp.get_method(ms.name)
+    except Exception:   # a plug-in that does not load: recorded as failed per start
+        return True
+    return getattr(cls.fit_starts, "__func__", None) is fogcomp.Compensator.fit_starts.__func__
 
 
 def _learned(rec: dict, model) -> None:

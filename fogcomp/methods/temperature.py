@@ -663,13 +663,16 @@ class Bp(Compensator):
         normalisation and initial weights (its ant colony or random search) as in ``fit``,
         then the K descents as one array program (``_train_gd_many``: the same epochs,
         stops and divergence checks as each start's own loop, to float32 rounding), then each
-        start's learned attributes and warnings. Levenberg-Marquardt starts, or starts whose
-        settings differ beyond their seed, are fitted one by one (an LM epoch is most of its
+        start's learned attributes and warnings. Levenberg-Marquardt starts, starts whose
+        settings differ beyond their seed, and a subclass with its own training or
+        preparation (a plug-in's), are fitted one by one (an LM epoch is most of its
         cost in its own 37 x 37 normal matrix: batching did not make it faster, measured)."""
         import warnings
 
         first = models[0] if models else None
-        if (len(models) < 2 or first.training != "gd"
+        own = first is not None and all(getattr(type(first), f) is getattr(Bp, f) for f in (
+            "_fit", "_train", "_prepare", "_set_trained", "_inputs"))
+        if (len(models) < 2 or not own or first.training != "gd"
                 or not all(first._same_but_seed(m) for m in models)):
             return super().fit_starts(models, data, reference_rate)
         out: list = [None] * len(models)

@@ -66,3 +66,27 @@ def test_refusals_name_the_flag(tmp_path):
     code, err = run(["allan", log, "--consistency", "--holdout", "0.99"])
     assert code == 2 and "--holdout" in err
     assert not (tmp_path / "k.yaml").exists()
+
+
+def test_the_measured_factor_is_refused_where_none_was_measured():
+    """--inflate-measured writes the largest lower end over the axes, at least 1; a column
+    whose factor is beyond the grid, not finite or not measured is refused, naming it."""
+    from types import SimpleNamespace
+
+    import pytest
+
+    from fogbench.formats.errors import LogError
+    from fogbench.logs.consistency import measured_factor
+
+    def col(f_low, flag=""):
+        return {"kalibr": SimpleNamespace(f_low=f_low, f_hat=f_low, f_high=f_low,
+                                          flags={"f_low": flag, "f_hat": "", "f_high": ""})}
+
+    assert measured_factor({"gyro_x": col(0.8), "gyro_y": col(1.3)}) == 1.3
+    assert measured_factor({"gyro_x": col(0.6)}) == 1.0
+    with pytest.raises(LogError, match="gyro_y"):
+        measured_factor({"gyro_x": col(1.1), "gyro_y": col(1000.0, ">")})
+    with pytest.raises(LogError, match="gyro_z"):
+        measured_factor({"gyro_x": col(1.1), "gyro_z": col(float("nan"))})
+    with pytest.raises(LogError, match="no factor was measured"):
+        measured_factor({"gyro_x": {"error": "too short"}})

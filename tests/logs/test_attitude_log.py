@@ -41,8 +41,8 @@ def _static_log(path, bias_dps=(0.0, 0.0, 0.01), seconds=3000.0, fs=100.0, lat_d
 def test_a_constant_vertical_bias_turns_the_heading_by_b_t_and_its_calibration_removes_it(
         tmp_path):
     """Static, level, a bias b = 0.01 deg/s on the down axis: heading error b t = 6 deg after
-    each 600 s window raw (and the tilt the Earth's rate makes of it); with the bias of the first 600 s removed,
-    none left beyond the noise (white 0.001 deg/s at 100 Hz: 0.001 deg/s x sqrt(600 s / 100 Hz)
+    each 600 s window raw (and the tilt the Earth's rate makes of it); with the bias of the
+    first 600 s removed, none left beyond the noise (white 0.001 deg/s at 100 Hz: 0.001 deg/s x sqrt(600 s / 100 Hz)
     ~ 0.002 deg over a window)."""
     log = _static_log(tmp_path / "static.csv")
     code, out, err = run_cli("attitude", str(log), "--latitude-deg", "45",
@@ -61,7 +61,8 @@ def test_a_constant_vertical_bias_turns_the_heading_by_b_t_and_its_calibration_r
     assert abs(raw["roll"]["mean_deg"]) < 0.1 * tilt
     for a in ("roll", "pitch", "heading"):
         assert abs(cal[a]["mean_deg"]) < 0.01
-        assert cal[a]["ci_low_deg"] <= 0.0 <= cal[a]["ci_high_deg"] or abs(cal[a]["mean_deg"]) < 3e-3
+        assert (cal[a]["ci_low_deg"] <= 0.0 <= cal[a]["ci_high_deg"]
+                or abs(cal[a]["mean_deg"]) < 3e-3)
     assert doc["bias_dph"][2] == pytest.approx(36.0, abs=0.1)
     assert doc["raw_at_s"]["600"]["heading_error_deg"] == pytest.approx(6.0, rel=1e-3)
     assert "heading" in out
@@ -88,6 +89,8 @@ def test_without_the_latitude_the_earths_vertical_rate_is_in_the_raw_heading(tmp
     (("--initial-rpy-deg", "0,95,0"), {}, "pitch 95 deg"),
     ((), dict(acc=False), "levelling needs the accelerometers"),
     (("--calibrate-s", "5000"), {}, "leaves nothing to score"),
+    (("--calibrate-s", "0.001"), {}, "shorter than one sample"),
+    (("--window-s", "0.001"), {}, "shorter than one sample"),
 ])
 def test_bad_input_is_refused_before_work_naming_it_and_nothing_is_written(
         tmp_path, args, make, message):

@@ -358,8 +358,10 @@ def _numbers_differ(a, b, path=""):
                 if not any(w in k for w in ("time", "per_s", "wall", "fit_reused_from"))
                 for d in _numbers_differ(a.get(k), b.get(k), f"{path}/{k}")]
     if isinstance(a, list) and isinstance(b, list) and len(a) == len(b):
-        return [d for i, (x, y) in enumerate(zip(a, b)) for d in _numbers_differ(x, y, f"{path}[{i}]")]
-    same = a == b or (isinstance(a, float) and isinstance(b, float) and np.isnan(a) and np.isnan(b))
+        return [d for i, (x, y) in enumerate(zip(a, b))
+                for d in _numbers_differ(x, y, f"{path}[{i}]")]
+    same = a == b or (isinstance(a, float) and isinstance(b, float)
+                      and np.isnan(a) and np.isnan(b))
     return [] if same else [path]
 
 
@@ -380,10 +382,28 @@ def test_an_ideal_twin_fitted_on_the_same_bytes_reuses_the_fit_and_scores_as_a_r
     # model_lstsq reads the specific force, which the lab computes and the truth simulates
     # (they differ in the last bits): fitted again
     assert "fit_reused_from" not in reused.fits["held_out.ideal"]["model_lstsq"][0]
-    monkeypatch.setattr(R, "_reuse", lambda entry: None)
+    monkeypatch.setattr(R, "_reuse", lambda entry, fit_sel, score_sel: None)
     refit = R.run_scenario(str(p), replicate=1, method_seeds=2)
     assert "fit_reused_from" not in refit.fits["held_out.ideal"]["bp"][0]
     # the two runs' metrics are the same numbers, the bp seeds' included
     assert _numbers_differ(reused.metrics, refit.metrics) == []
     ideal = [s for s in reused.scored if s.protocol == "held_out.ideal"][0]
     assert len(ideal.seed_metrics["bp"]) == 2
+
+
+def test_a_fit_reused_by_another_protocol_says_what_it_is_scored_on_there(tmp_path):
+    """A deterministic method fitted on the same bytes by two protocols (an in-sample one
+    before the held-out one) is fitted once; the second record names its own scored runs and
+    where the fit comes from; a random method's starts (seeded per protocol) are not shared."""
+    import fogbench.run.runner as R
+
+    in_sample = ('[[protocols]]\nname = "in_sample"\nin_sample = true\nfit = ["fit"]\n'
+                 'score = ["fit"]\n\n[[protocols]]\nname = "held_out"')
+    p = tmp_path / "static_thermal.toml"
+    p.write_text(STATIC_THERMAL.replace('[[protocols]]\nname = "held_out"', in_sample))
+    res = R.run_scenario(str(p))
+    rec = res.fits["held_out"]["poly_temp"][0]
+    assert rec["fit_reused_from"] == "in_sample"
+    assert rec["scored_on"] == res.fits["held_out.ideal"]["poly_temp"][0]["scored_on"]
+    assert rec["scored_on"] != res.fits["in_sample"]["poly_temp"][0]["scored_on"]
+    assert "fit_reused_from" not in res.fits["held_out"]["bp"][0]

@@ -78,3 +78,33 @@ def test_a_start_whose_checks_fail_fails_alone():
     outcomes = type(models[0]).fit_starts(models, data, ref)
     assert outcomes[0][0] is None and outcomes[2][0] is None
     assert "random_state is None" in str(outcomes[1][0])
+
+
+def test_a_subclass_with_its_own_training_is_fitted_one_by_one():
+    """A plug-in that subclasses Bp and trains its own way gets its own code, not Bp's batch."""
+    data, ref = _thermal_record()
+    calls = []
+
+    class MyBp(fogcomp.methods.temperature.Bp):
+        name = "test_my_bp"
+
+        def _train(self, theta, x, t):
+            calls.append(self.random_state)
+            super()._train(theta, x, t)
+
+    models = [MyBp(max_epochs=5, random_state=k) for k in range(3)]
+    outcomes = MyBp.fit_starts(models, data, ref)
+    assert all(exc is None for exc, _ in outcomes) and calls == [0, 1, 2]
+
+
+def test_aco_bp_starts_are_batched():
+    """AcoBp (its own start search, Bp's training) takes the batched path: the colony runs per
+    start, the descents together (no per-start _train call)."""
+    data, ref = _thermal_record()
+    models = [fogcomp.make_method("aco_bp", max_epochs=5, aco_iter=2, random_state=k)
+              for k in range(3)]
+    seen = []
+    for m in models:
+        m._train = lambda *a, m=m: seen.append(m)   # would be called one by one
+    outcomes = type(models[0]).fit_starts(models, data, ref)
+    assert all(exc is None for exc, _ in outcomes) and seen == []

@@ -54,6 +54,11 @@ def main(seconds: float = 600.0, repeats: int = 5, noise_seeds: int = 20,
 
     print()
     bench_consistency(seeds=noise_seeds)
+    from fogbench.bench.attitude import attitude_study, report
+
+    print()
+    for line in report(attitude_study(replicates=noise_seeds)):
+        print(line, flush=True)
     return 0
 
 

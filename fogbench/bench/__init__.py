@@ -54,10 +54,13 @@ def main(seconds: float = 600.0, repeats: int = 5, noise_seeds: int = 20,
 
     print()
     bench_consistency(seeds=noise_seeds)
-    from fogbench.bench.attitude import attitude_study, report
+    from fogbench.bench.attitude import attitude_study, report, triad_report, triad_study
 
     print()
     for line in report(attitude_study(replicates=noise_seeds)):
+        print(line, flush=True)
+    print()
+    for line in triad_report(triad_study(replicates=noise_seeds)):
         print(line, flush=True)
     return 0
 

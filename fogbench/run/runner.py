@@ -639,6 +639,11 @@ def _fit_many(ms, seeds: list, fit_piece: Piece, fit_sel, score_sel,
                     outcomes = [(None, [])]
                 else:
                     outcomes = type(models[0]).fit_starts(models, fit_piece.gyro(), ref)
+                    if not (isinstance(outcomes, list) and len(outcomes) == K and all(
+                            isinstance(o, tuple) and len(o) == 2 for o in outcomes)):
+                        raise TypeError(f"{ms.label}: fit_starts returned "
+                                        f"{type(outcomes).__name__}, not a list of {K} "
+                                        "(exception or None, warnings) pairs")
                 dt = (time.perf_counter() - t0) / K
         except _METHOD_FAILURES as exc:  # any failure of a method is reported, not fatal
             error = f"{type(exc).__name__}: {exc}"

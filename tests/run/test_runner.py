@@ -407,3 +407,32 @@ def test_a_fit_reused_by_another_protocol_says_what_it_is_scored_on_there(tmp_pa
     assert rec["scored_on"] == res.fits["held_out.ideal"]["poly_temp"][0]["scored_on"]
     assert rec["scored_on"] != res.fits["in_sample"]["poly_temp"][0]["scored_on"]
     assert "fit_reused_from" not in res.fits["held_out"]["bp"][0]
+
+
+def test_a_method_whose_fit_starts_returns_garbage_is_reported_failed_and_the_run_goes_on(
+        tmp_path, monkeypatch):
+    """A plug-in's fit_starts that returns the wrong shape fails its starts, named, and the
+    other methods are scored."""
+    import fogcomp
+    import fogbench.run.runner as R
+
+    from fogcomp.methods.temperature import Bp
+
+    class _Garbage(Bp):
+        name = "test_garbage_starts"
+
+        @classmethod
+        def fit_starts(cls, models, data, reference_rate=None):
+            return "not a list"
+
+    from fogcomp import _registry
+
+    monkeypatch.setattr(_registry, "_REGISTRY", dict(_registry._REGISTRY))   # undone after
+    fogcomp.register(_Garbage)
+    p = tmp_path / "static_thermal.toml"
+    p.write_text(STATIC_THERMAL + '\n[[methods]]\nname = "test_garbage_starts"\n'
+                 'params = { max_epochs = 5 }\n\n[montecarlo]\nmethod_seeds = 2\n')
+    res = R.run_scenario(str(p), replicate=1, method_seeds=2)
+    rec = res.fits["held_out"]["test_garbage_starts"][0]
+    assert rec["status"] == "failed" and "fit_starts returned str" in rec["error"]
+    assert res.fits["held_out"]["poly_temp"][0]["status"] == "ok"

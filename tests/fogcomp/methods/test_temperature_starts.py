@@ -85,7 +85,9 @@ def test_a_subclass_with_its_own_training_is_fitted_one_by_one():
     data, ref = _thermal_record()
     calls = []
 
-    class MyBp(fogcomp.methods.temperature.Bp):
+    from fogcomp.methods.temperature import Bp
+
+    class MyBp(Bp):
         name = "test_my_bp"
 
         def _train(self, theta, x, t):

@@ -153,8 +153,14 @@ def test_a_weak_term_kept_in_the_model_reports_a_bound_not_an_interval():
 
 
 def test_the_law_holds_on_records_of_white_noise_and_a_weak_gauss_markov_term(weak_models):
+    """Every term of the 20 models obeys the statuses' one meaning (``_law``), and both
+    meanings occur: identified terms and upper bounds (the further Gauss-Markov term's)."""
+    assert len(weak_models) == 20
+    statuses = set()
     for m in weak_models:
         _law(m)
+        statuses |= {t.status for t in m.terms}
+    assert {"identified", "upper bound"} <= statuses, statuses
 
 
 # --- a further Gauss-Markov term's bound -----------------------------------------------------

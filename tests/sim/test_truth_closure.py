@@ -12,35 +12,17 @@ import math
 import numpy as np
 import pytest
 
-from fogcomp.attitude import integrate_attitude, orientation_error, true_attitude
-from sim.motion import ConstantRate, Hold, Positions, RateSteps, SineRate
+from fogbench.bench.truth_closure import closure as _closure, tilt_and_turn_program
+from fogcomp.attitude import true_attitude
+from sim.motion import ConstantRate, Hold, Positions, SineRate
 from sim.rate_table import TableConfig, simulate_truth
 
 ARCSEC = math.radians(1.0) / 3600.0
 D = math.radians
 
 
-def tilt_and_turn_program():
-    """193 s: spin while tilting, positions (tilt and turntable moving at once), a sine, rate
-    steps, a hold (scripts/truth_closure.py measures the same program)."""
-    return [
-        Hold(2.0),
-        ConstantRate(20.0, D(60.0), tilt=D(90.0)),
-        ConstantRate(10.0, D(-45.0), tilt=D(30.0)),
-        Positions(tilts=(D(0.0), D(90.0), D(180.0)), headings=(D(90.0), D(-90.0)),
-                  dwell=3.0, move_time=10.0),
-        SineRate(20.0, D(40.0), 0.5, tilt=D(45.0)),
-        RateSteps((D(10.0), D(-30.0), D(100.0), D(0.0)), 8.0, tilt=D(-60.0)),
-        Hold(31.0, tilt=D(0.0)),
-    ]
-
-
 def closure(segments, fs, cfg):
-    tr = simulate_truth(segments, fs, cfg)
-    true = true_attitude(tr.fog_quat, cfg.heading)
-    lat = cfg.latitude if cfg.earth_rate else None
-    est = integrate_attitude(true[0], tr.rate / fs, fs, latitude=lat)
-    return orientation_error(est[:len(true)], true) / ARCSEC
+    return _closure(segments, fs, cfg)[0]
 
 
 @pytest.mark.parametrize("earth", [True, False])

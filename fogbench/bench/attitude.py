@@ -29,26 +29,27 @@ import math
 
 import numpy as np
 
+from fogbench.run.runner import DETERMINISTIC
+from fogcomp.units import DPH, EARTH_RATE
+
 __all__ = ["attitude_study", "main"]
 
 LATITUDE_DEG = 45.0
 HEADING_DEG = 30.0
 FS_HZ = 10.0
-#: the terms a model of the inputs could predict (fogbench.run.runner.DETERMINISTIC)
-DETERMINISTIC = ("constant_bias", "switch_on_bias", "rate_ramp", "scale_factor", "misalignment",
-                 "g_sensitivity", "g2_sensitivity", "temperature")
 REPORT_S = (60.0, 600.0, 3600.0)
 
 
-def _rig(preset: str):
+def _rig(keys: dict, fs: float):
+    """The rig of a study: a [fog] table's keys at ``fs``, the level table at the study's site."""
     from fogbench.scenario.device_file import _fog
     from fogbench.scenario.tables import _Table
     from sim.rate_table import TableConfig
     from sim.rig import Rig
 
-    params, *_ = _fog(_Table({"preset": preset}, "[fog]", "bench attitude"), FS_HZ)
+    params, *_ = _fog(_Table(dict(keys), "[fog]", "bench attitude"), fs)
     table = TableConfig(latitude=math.radians(LATITUDE_DEG), heading=math.radians(HEADING_DEG))
-    return Rig(fs=FS_HZ, table=table, fog=params, axes=("x", "y", "z"))
+    return Rig(fs=fs, table=table, fog=params, axes=("x", "y", "z"))
 
 
 def _one(rig, seed: int, align_s: float, hold_s: float, truth=None) -> tuple[dict, object]:
@@ -82,8 +83,6 @@ def _one(rig, seed: int, align_s: float, hold_s: float, truth=None) -> tuple[dic
     err = attitude_errors(found, C[n_al // 2])["heading_error_rad"]
     bias_b = (raw[:n_al] - rd.truth.rate[:n_al]).mean(axis=0)
     b_east = C[n_al // 2].apply(bias_b)[1]                  # NED: y is east
-    from fogcomp.units import EARTH_RATE
-
     predicted = -b_east / (EARTH_RATE * math.cos(lat))
     out["gyrocompass"] = {"heading_error_deg": math.degrees(float(err)),
                           "predicted_deg": math.degrees(predicted)}
@@ -91,20 +90,17 @@ def _one(rig, seed: int, align_s: float, hold_s: float, truth=None) -> tuple[dic
 
 
 def _ci(v) -> tuple[float, float, float]:
-    from scipy import stats
+    """(mean, 95 % Student t-interval of the mean) over replicates."""
+    from fogbench.run.stats import mean_ci
 
     v = np.asarray(v, dtype=float)
-    m = float(v.mean())
-    if v.size < 2:
-        return m, math.nan, math.nan
-    h = float(stats.t.ppf(0.975, v.size - 1) * v.std(ddof=1) / math.sqrt(v.size))
-    return m, m - h, m + h
+    return (float(v.mean()), *mean_ci(v))
 
 
 def attitude_study(replicates: int = 20, preset: str = "navigation", align_s: float = 600.0,
                    hold_s: float = 3600.0, seed: int = 4200) -> dict:
     """Every replicate's results: {"runs": [per replicate], "times_s": [...]}."""
-    rig = _rig(preset)
+    rig = _rig({"preset": preset, "axes": ["x", "y", "z"]}, FS_HZ)
     runs, truth = [], None
     for r in range(replicates):
         res, truth = _one(rig, seed + r, align_s, hold_s, truth)
@@ -207,17 +203,6 @@ def manoeuvre_program(align_s: float = 600.0, hold_s: float = 600.0):
             ConstantRate(9.0, d(10)), tilts, ConstantRate(9.0, d(-10)), Hold(hold_s))
 
 
-def _triad_rig():
-    from fogbench.scenario.device_file import _fog
-    from fogbench.scenario.tables import _Table
-    from sim.rate_table import TableConfig
-    from sim.rig import Rig
-
-    params, *_ = _fog(_Table(dict(TRIAD_KEYS), "[fog]", "bench attitude"), TRIAD_FS_HZ)
-    table = TableConfig(latitude=math.radians(LATITUDE_DEG), heading=math.radians(HEADING_DEG))
-    return Rig(fs=TRIAD_FS_HZ, table=table, fog=params, axes=("x", "y", "z"))
-
-
 def triad_study(replicates: int = 20, seed: int = 4300, align_s: float = 600.0,
                 hold_s: float = 600.0) -> dict:
     """Per replicate: the triad calibrated on one power-on of the lab's program (its lab
@@ -232,7 +217,7 @@ def triad_study(replicates: int = 20, seed: int = 4300, align_s: float = 600.0,
     from sim.lab import LabKnowledge, commanded_angles, lab_reference
     from sim.rig import Run, simulate_run
 
-    rig = _triad_rig()
+    rig = _rig(TRIAD_KEYS, TRIAD_FS_HZ)
     fs, lat = rig.fs, rig.table.latitude
     true_M = np.eye(3) * (1.0 + rig.fog.scale_factor) + np.asarray(rig.fog.misalignment)
     true_G = np.asarray(rig.fog.g_sens, dtype=float)
@@ -271,7 +256,7 @@ def triad_study(replicates: int = 20, seed: int = 4300, align_s: float = 600.0,
         n = raw.shape[0]
         ends = {"manoeuvre_end": n - n_hold, "hold_end": n}
         res = {"zM": zM, "zG": zG, "M_err_mrad": (model.M - true_M) * 1e3,
-               "G_err_dph_per_g": (model.G - true_G) / DPH_RAD}
+               "G_err_dph_per_g": (model.G - true_G) / DPH}
         for name, w in readings.items():
             est = integrate_attitude(C[n_al], w[n_al:] / fs, fs, latitude=lat)
             idx = [e - n_al for e in ends.values()]
@@ -280,9 +265,6 @@ def triad_study(replicates: int = 20, seed: int = 4300, align_s: float = 600.0,
         out.append(res)
     return {"runs": out, "ends": ["manoeuvre_end", "hold_end"], "true_M": true_M,
             "true_G": true_G, "align_s": align_s, "hold_s": hold_s}
-
-
-DPH_RAD = math.radians(1.0) / 3600.0
 
 
 def triad_report(study: dict) -> list[str]:

@@ -166,19 +166,19 @@ def _window_errors(hist, C0, fs: float, lat, n_win: int) -> np.ndarray:
 
 
 def _summary(errs_deg: np.ndarray) -> dict:
-    """Mean, sd and 95 % t-interval of the mean of each angle's window errors, deg."""
-    from scipy import stats
+    """Mean, sd and 95 % t-interval of the mean (:func:`fogbench.run.stats.mean_ci`) of each
+    angle's window errors, deg (at least one window: the flags are checked for it)."""
+    from fogbench.run.stats import mean_ci
 
     k = errs_deg.shape[0]
     out = {"windows": k}
     for j, name in enumerate(("roll", "pitch", "heading")):
         v = errs_deg[:, j]
-        mean = float(np.mean(v)) if k else math.nan
-        sd = float(np.std(v, ddof=1)) if k > 1 else math.nan
-        half = float(stats.t.ppf(0.975, k - 1) * sd / math.sqrt(k)) if k > 1 else math.nan
-        out[name] = {"mean_deg": mean, "sd_deg": sd, "ci_low_deg": mean - half,
-                     "ci_high_deg": mean + half, "rms_deg": float(np.sqrt(np.mean(v * v)))
-                     if k else math.nan}
+        low, high = mean_ci(v)
+        out[name] = {"mean_deg": float(np.mean(v)),
+                     "sd_deg": float(np.std(v, ddof=1)) if k > 1 else math.nan,
+                     "ci_low_deg": low, "ci_high_deg": high,
+                     "rms_deg": float(np.sqrt(np.mean(v * v)))}
     return out
 
 

@@ -676,7 +676,7 @@ class Bp(Compensator):
                 or not all(first._same_but_seed(m) for m in models)):
             return super().fit_starts(models, data, reference_rate)
         out: list = [None] * len(models)
-        ready = []          # (index, x, t, theta0, warnings so far)
+        ready = []          # (index, initial weights, warnings so far); x, t: the same data
         for i, model in enumerate(models):
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
@@ -685,28 +685,27 @@ class Bp(Compensator):
                     model._validate()
                     rng = model._rng()
                     x, t = model._prepare(data, error)
-                    ready.append((i, x, t, model._initial_params(x, t, rng)))
+                    theta0 = model._initial_params(x, t, rng)
                 except Exception as exc:   # noqa: BLE001 - each start's failure is its own
                     out[i] = (exc, list(caught))
                     continue
-            ready[-1] = ready[-1] + (list(caught),)
-        if ready:
-            _, x, t, _, _ = ready[0]
-            results = _train_gd_many(np.array([r[3] for r in ready]), x, t, first.hidden_size,
-                                     float(first.learning_rate), first.goal, first.max_epochs,
-                                     first._dtype())
-            for (i, _, _, _, earlier), (theta, losses, stop, bad) in zip(ready, results):
-                model = models[i]
-                with warnings.catch_warnings(record=True) as caught:
-                    warnings.simplefilter("always")
-                    if bad is not None:
-                        out[i] = (DivergenceError(model._diverged(bad, losses[-1] if losses
-                                                                  else np.nan, losses[:-1])),
-                                  earlier)
-                        continue
-                    model._set_trained(theta, losses, stop)
-                    model.fitted_ = True
-                out[i] = (None, earlier + list(caught))
+            ready.append((i, theta0, list(caught)))
+        if not ready:
+            return out
+        results = _train_gd_many(np.array([r[1] for r in ready]), x, t, first.hidden_size,
+                                 float(first.learning_rate), first.goal, first.max_epochs,
+                                 first._dtype())
+        for (i, _, earlier), (theta, losses, stop, bad) in zip(ready, results):
+            model = models[i]
+            if bad is not None:     # losses ends with the MSE that diverged
+                out[i] = (DivergenceError(model._diverged(bad, losses[-1], losses[:-1])),
+                          earlier)
+                continue
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                model._set_trained(theta, losses, stop)
+                model.fitted_ = True
+            out[i] = (None, earlier + list(caught))
         return out
 
     def _dtype(self):

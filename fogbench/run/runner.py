@@ -341,8 +341,9 @@ def _score_fit(model, rec: dict, items: list[Scored], label: str, first: bool,
             it.seed_metrics.setdefault(label, []).append(m)
 
 
-def _fit_key(ms, seed, piece: Piece) -> tuple:
-    """What decides a fit: the method, its parameters, its seed and the bytes it is handed (the
+def _fit_keys(ms, seeds: list, piece: Piece) -> list[tuple]:
+    """What decides each seed's fit: the method, its parameters, its seed and the bytes it is
+    handed (the
     record's inputs and the reference rate). Two protocols whose fits share a key (a lab
     protocol and its ideal-lab twin where the lab's reference equals the truth, as on a static
     table) get one fit: the second is the first's, not a new draw. A method of fogcomp's own is
@@ -368,11 +369,12 @@ def _fit_key(ms, seed, piece: Piece) -> tuple:
         h.update(a.tobytes())
     h.update(repr(float(g.fs)).encode())
     params = json.dumps(json_ready(ms.params), sort_keys=True, default=repr)
-    return ms.name, params, seed, h.hexdigest()
+    digest = h.hexdigest()      # once for the K seeds: the bytes are the same
+    return [(ms.name, params, seed, digest) for seed in seeds]
 
 
 def _keep(fitted: dict, key, protocol: str, rec: dict, model) -> None:
-    """Keep a fit for later protocols (:func:`_fit_key`): a copy taken before it scores
+    """Keep a fit for later protocols (:func:`_fit_keys`): a copy taken before it scores
     anything (a plug-in whose ``compensate`` changes its own state would otherwise hand the
     next protocol another model than a refit), and only a fit that succeeded (a failure, a
     time limit above all, is not a property of the bytes)."""
@@ -406,7 +408,7 @@ def _run_protocol(prot, sc, plan, data: dict, axis_j: int, lab_refs: dict, repli
                   ) -> tuple[list[Scored], dict]:
     """One protocol: (its scored pieces, label -> fit records) over its (fit, score) pairings.
     ``fitted`` (fit key -> (protocol, record, model)) carries fits across protocols:
-    :func:`_fit_key`."""
+    :func:`_fit_keys`."""
     fitted = {} if fitted is None else fitted
     scored: list[Scored] = []
     fits: dict = {m.label: [] for m in plan.methods}
@@ -423,7 +425,7 @@ def _run_protocol(prot, sc, plan, data: dict, axis_j: int, lab_refs: dict, repli
                 ms.params.get("random_state") is None
             seeds = [method_seed(sc, plan, prot, ms, fit_sel, replicate, k) if seeded else None
                      for k in range(method_seeds if seeded else 1)]
-            keys = [_fit_key(ms, seed, fit_piece) for seed in seeds]
+            keys = _fit_keys(ms, seeds, fit_piece)
             done = [_reuse(fitted.get(key), fit_sel, score_sel) for key in keys]
             new = [k for k, d in enumerate(done) if d is None]
             if new:

@@ -279,6 +279,9 @@ def triad_report(study: dict) -> list[str]:
              f"RMS error M {float(np.sqrt(np.mean([np.square(r['M_err_mrad']) for r in runs]))):.4f}"
              f" mrad, G {float(np.sqrt(np.mean([np.square(r['G_err_dph_per_g']) for r in runs]))):.3f}"
              " deg/h/g",
+             f"  the device: preset {TRIAD_KEYS['preset']} with misalignment_mrad "
+             f"{TRIAD_KEYS['misalignment_mrad']} and g_sens_dph_per_g "
+             f"{TRIAD_KEYS['g_sens_dph_per_g']} (illustrative, not a datasheet's)",
              f"  then another power-on: {study['align_s']:g} s alignment, a manoeuvre (a turn, "
              f"tilts about x and y), {study['hold_s']:g} s hold; mean [95 % interval], deg"]
     for key, label in (("orientation_error_deg", "orientation"), ("heading_error_deg",

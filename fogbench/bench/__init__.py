@@ -5,7 +5,7 @@ to a reference in the same run: the rig against bare ``mujoco.rollout`` and the 
 (:mod:`.allan`); every method, the Kalman engines against filterpy (:mod:`.methods`); every
 bundled scenario's first run and one replicate, and the replicates per second on one and two
 processes (:mod:`.scenarios`); the noise identifier's accuracy and coverage on records of known
-noise (:mod:`.noise`) the joint round trip of one gyro's logs (:mod:`.joint`), the device-file round trip (:mod:`.device`) and the consistency of the filters noise models imply (:mod:`.consistency`, about a minute at 20 seeds: full bench only)."""
+noise (:mod:`.noise`) and its choice of model on composite records (:mod:`.noise_select`, about 6 minutes), the joint round trip of one gyro's logs (:mod:`.joint`), the device-file round trip (:mod:`.device`) and the consistency of the filters noise models imply (:mod:`.consistency`, about a minute at 20 seeds: full bench only)."""
 
 from __future__ import annotations
 
@@ -43,6 +43,10 @@ def main(seconds: float = 600.0, repeats: int = 5, noise_seeds: int = 20,
 
     print()
     bench_noise(seeds=noise_seeds)
+    from fogbench.bench.noise_select import run as bench_noise_select
+
+    print()
+    bench_noise_select(seeds=noise_seeds)
     from fogbench.bench.device import run as bench_device
     from fogbench.bench.joint import print_joint
 

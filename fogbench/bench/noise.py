@@ -160,7 +160,7 @@ def _term_rows(models, co, gm, identified_only: bool):
                      [(x.low or 0.0) <= sigma <= (x.high or x.bound or math.inf)
                       for x in est]))
         rows.append((f"GM{g} tau", len(est), [x.tau / T - 1 for x in est],
-                     [x.tau_low <= T <= x.tau_high for x in est]))
+                     [(x.tau_low or 0.0) <= T <= (x.tau_high or math.inf) for x in est]))
     return rows
 
 

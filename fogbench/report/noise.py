@@ -95,6 +95,14 @@ def notes(rows) -> list[str]:
             if t.record_s_for_10pct is not None and t.in_model:
                 longer.append(f"{t.label} to 10 % from {t.record_s_for_10pct / 3600:.3g} h")
         out.append(fit + ("; record needed: " + ", ".join(longer) if longer else ""))
+        if m.alternative is not None:
+            a = m.alternative
+            out.append(f"{name}: the record cannot tell {m.spec()} from {a.spec()} (J "
+                       f"{m.J:.3g} and {a.J:.3g}): the alternative's terms "
+                       + ", ".join(f"{t.label} {term_text(t)} {UNITS[t.term]}"
+                                   for t in a.identified if t.term != "GM")
+                       + ("; Gauss-Markov " + _gm_text(a) if a.gm_terms else "")
+                       + " (allan.json: alternative)")
     return out
 
 

@@ -11,10 +11,10 @@ import numpy as np
 
 from .._stats import ONE_SIGMA_CI
 from ._fit import _fisher_inverse, _Fit, _jacobian, _param_cov, _pilot, _Problem, _Spec, _stated
-from ._intervals import _interval_sqrt, _record_for, _score_interval
+from ._intervals import _interval_sqrt, _record_for, _score_interval, _tau_interval
 from ._processes import FLICKER_FLOOR, LINEAR_TERMS, avar_gm, parse_model
 from ._result import ModelTerm, NoiseModel
-from ._select import _gm_threshold, _saturated, _select
+from ._select import _alternative, _gm_threshold, _saturated, _select
 
 
 def identify_noise_model(taus, avar, fs: float, n, *, model=None, ci: float | None = None,
@@ -80,10 +80,25 @@ def identify_noise_model(taus, avar, fs: float, n, *, model=None, ci: float | No
     scale = fit.J / dof if dof > 0 and p_value < 0.05 else 1.0
     terms = _model_terms(_Report.of(pb, fit, scale, ci, stated is not None, alpha,
                                     record_length), weak, log, max_gm)
-    return NoiseModel(terms=terms, taus=t, avar=v, avar_cov=cov_v, fs=fs, n=segs, ci=ci,
-                      J=float(fit.J), dof=int(dof), p_value=p_value, scale=float(scale),
-                      floor_reading=_floor_reading(t, v, cov_v), selection=log,
-                      stated=stated is not None, alpha=alpha, model_error=float(pb.model_error))
+    alt = None if stated is not None else _alternative(pb, fit, weak, alpha, max_gm, log)
+    floor = _floor_reading(t, v, cov_v)
+
+    def model(f, terms, log, scale, p_value, dof, alternative=None):
+        return NoiseModel(terms=terms, taus=t, avar=v, avar_cov=cov_v, fs=fs, n=segs, ci=ci,
+                          J=float(f.J), dof=int(dof), p_value=p_value, scale=float(scale),
+                          floor_reading=floor, selection=log, stated=stated is not None,
+                          alpha=alpha, model_error=float(pb.model_error),
+                          alternative=alternative)
+
+    other = None
+    if alt is not None:
+        a_dof = t.size - alt.spec.n_params
+        a_p = float(chi2.sf(alt.J, a_dof)) if a_dof > 0 else float("nan")
+        a_scale = alt.J / a_dof if a_dof > 0 and a_p < 0.05 else 1.0
+        a_terms = _model_terms(_Report.of(pb, alt, a_scale, ci, False, alpha, False), {},
+                               [], max_gm)
+        other = model(alt, a_terms, [log[-1]], a_scale, a_p, a_dof)
+    return model(fit, terms, log, scale, p_value, dof, other)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -315,15 +330,14 @@ def _linear_term(r: _Report, k: int, weak) -> ModelTerm:
 
 
 def _gm_term(r: _Report, g: int) -> ModelTerm:
-    """Gauss-Markov term g of the fit, its correlation time's interval normal in log T."""
-    n_lin, n_gm = len(r.fit.spec.linear), len(r.fit.spec.gm)
+    """Gauss-Markov term g of the fit, its correlation time's interval by inverting J
+    (:func:`._intervals._tau_interval`)."""
+    n_lin = len(r.fit.spec.linear)
     T = r.fit.spec.gm[g]
     k = n_lin + g
     val, lo, hi, sigma, bound = _interval(r, k)
-    kt = n_lin + n_gm + g
-    st = math.sqrt(max(r.cov[kt, kt], 0.0))
-    tau = dict(tau=float(T), tau_low=float(T * math.exp(-r.z * st)),
-               tau_high=float(T * math.exp(r.z * st)))
+    t_lo, t_hi = _tau_interval(r.pb, r.fit, g, r.z, r.scale)
+    tau = dict(tau=float(T), tau_low=t_lo, tau_high=t_hi)
     if not val > 0:
         return _not_shown("GM", val, bound, "stated, fitted as exactly zero", **tau)
     rel = (sigma / val) if sigma and val else math.inf

@@ -103,7 +103,8 @@ class ModelTerm:
         One-sigma uncertainty of ``value`` (linearised, symmetric: for display), SI:
         identified terms only.
     tau : float or None
-        GM: the correlation time, s (``tau_low``, ``tau_high``: its interval).
+        GM: the correlation time, s (``tau_low``, ``tau_high``: its interval, inverted from
+        J; None on a side the record does not bound).
     reason : str
         Why it is (not) in the model, in words.
     record_s_for_10pct : float or None
@@ -217,6 +218,11 @@ class NoiseModel:
         The steps of the model selection.
     stated : bool
         True when the model was stated (``model=``) rather than selected.
+    alternative : NoiseModel or None
+        The other reading of the same feature when the record cannot tell them apart (a
+        Gauss-Markov term in place of the selected flicker, or flicker in place of a selected
+        Gauss-Markov term, fitting as well: ``fogcomp.noise._select._alternative``), with all
+        its terms and intervals; None when there is none or the model was stated.
     """
 
     terms: list
@@ -235,6 +241,7 @@ class NoiseModel:
     stated: bool = False
     alpha: float = 0.01
     model_error: float = 0.001
+    alternative: NoiseModel | None = None
 
     def term(self, name: str) -> ModelTerm:
         """The term called ``name`` (case and spaces ignored).
@@ -366,7 +373,8 @@ class NoiseModel:
              "floor_reading": {"bias_instability_dph", "bias_instability_sigma_dph", "tau_s",
                                "convention", "reason"},
              "fit": {"J", "dof", "p_value", "scale", "alpha", "model_error"},
-             "selection": [str, ...]}
+             "selection": [str, ...],
+             "alternative": None | {...}}  # the other reading that fits as well, this shape
 
         ``<k>`` is the term's datasheet key with its unit (``DATASHEET``:
         ``quantisation_arcsec``, ``arw_deg_rt_h``, ``bias_instability_dph``, ``rrw_dph_rt_h``,
@@ -396,6 +404,7 @@ class NoiseModel:
             "fit": {"J": self.J, "dof": self.dof, "p_value": self.p_value, "scale": self.scale,
                     "alpha": self.alpha, "model_error": self.model_error},
             "selection": list(self.selection),
+            "alternative": None if self.alternative is None else self.alternative.to_datasheet(),
         })
 
     def datasheet_values(self) -> dict:

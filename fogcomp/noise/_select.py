@@ -130,3 +130,64 @@ def _saturated(pb: _Problem, alpha: float, max_gm: int) -> _Fit:
         else:
             break
     return cur
+
+
+def _alternative(pb: _Problem, fit: _Fit, weak: dict, alpha: float, max_gm: int,
+                 log: list) -> _Fit | None:
+    """The other reading of the same feature, when the record cannot choose: over a record of
+    a few correlation times a flicker floor and a Gauss-Markov hump bend the Allan curve alike.
+    For a selected model with an identified flicker B (and room for one more Gauss-Markov
+    term), the model with B replaced by a Gauss-Markov term; for one with Gauss-Markov terms
+    and no flicker, each with one of them replaced by B. An alternative *fits as well* when its
+    J, under the same weights, exceeds the selected model's by less than the critical value of
+    one term (``_threshold(1, alpha)``: the two are not nested, and this is the bar a term
+    must clear to enter the selection at all) or is lower, its swapped-in term is above zero,
+    and a
+    Gauss-Markov term of it lies inside the averaging times and makes 10 % of the curve
+    somewhere. Returns the best one (least J) or None; the log says which and both J.
+
+    Why the selection is not changed by it: measured (``fogbench.bench.noise_select``, and a
+    Whittle likelihood on the full periodogram, docs/theory/noise-identification.md), an 8 h
+    record of white noise + GM(0.05 deg/h, 500 s) and its mirror, white + flicker 0.037 deg/h,
+    differ in their log-likelihoods of the two readings by a few units in either direction:
+    no rule on the data is right for both, so the criterion's choice stands and the other
+    reading is reported beside it (``NoiseModel.alternative``)."""
+    from ._processes import LINEAR_TERMS as ORDER
+
+    lo, hi = pb.taus[0], pb.taus[-1]
+    bar = _threshold(1, alpha)
+    cands = []
+    lin = fit.spec.linear
+    if "B" in lin and "B" not in weak and len(fit.spec.gm) < max_gm:
+        k = lin.index("B")
+        if fit.coef[k] > 0:
+            cands.append(("a Gauss-Markov term in place of the flicker B",
+                          pb.add_gm(_Spec(tuple(t for t in lin if t != "B"), fit.spec.gm))))
+    if "B" not in lin:
+        with_b = tuple(t for t in ORDER if t in lin or t == "B")
+        for g, T in enumerate(fit.spec.gm):
+            cands.append((f"the flicker B in place of GM({T:.3g} s)",
+                          pb.refine(_Spec(with_b, tuple(x for i, x in enumerate(fit.spec.gm)
+                                                        if i != g)))))
+    best = None
+    for what, alt in cands:
+        n_lin = len(alt.spec.linear)
+        if "B" in alt.spec.linear and not alt.coef[alt.spec.linear.index("B")] > 0:
+            continue
+        if not all(c > 0 for c in alt.coef[n_lin:]):
+            continue
+        if not all(lo <= T <= hi for T in alt.spec.gm) or _gm_share(pb, alt) < GM_MIN_SHARE:
+            continue
+        if alt.J - fit.J < bar and (best is None or alt.J < best[1].J):
+            best = (what, alt)
+    if best is None:
+        return None
+    what, alt = best
+    extra = alt.spec.n_params - fit.spec.n_params
+    wvic = "the alternative" if alt.J + 2 * extra < fit.J else "the selection"
+    log.append(f"both fit: {fit.spec.label()} (J {fit.J:.4g}) and, with {what}, "
+               f"{alt.spec.label()} (J {alt.J:.4g}, {alt.J - fit.J:+.3g}; within one term's "
+               f"critical value {bar:.3g}); the first is the selection (the tests above), the "
+               f"second the alternative; a criterion of 2 per parameter (WVIC) would prefer "
+               f"{wvic}")
+    return alt

@@ -138,6 +138,25 @@ def report(study: dict) -> list[str]:
     return lines
 
 
+def _check_rrd_path(path: str) -> None:
+    """Refuse, before any work, a path that exists and is not a Rerun recording (the command
+    replaces only its own kind of output) or whose folder does not exist."""
+    import sys
+    from pathlib import Path
+
+    p = Path(path)
+    why = None
+    if p.suffix != ".rrd":
+        why = "the recording's name must end in .rrd"
+    elif p.exists() and (p.is_dir() or p.read_bytes()[:4] != b"RRF2"):
+        why = "it exists and is not a Rerun recording: not overwritten"
+    elif not p.parent.is_dir():
+        why = f"its folder {p.parent} does not exist"
+    if why:
+        print(f"error: --rrd {path}: {why}", file=sys.stderr)
+        raise SystemExit(2)
+
+
 def main(argv=None) -> int:
     a = argparse.ArgumentParser(prog="python -m fogbench.bench.attitude",
                                 description=__doc__.splitlines()[0])
@@ -146,18 +165,31 @@ def main(argv=None) -> int:
     a.add_argument("--hold-s", type=float, default=3600.0)
     a.add_argument("--triad", action="store_true", help="the triad calibrated on the table, "
                    "then a manoeuvre (triad_study)")
+    a.add_argument("--rrd", metavar="PATH", help="with --triad: write a Rerun recording of the "
+                   "first replicate's integrated attitudes beside the true one (.rrd; refused "
+                   "if PATH exists and is not a Rerun recording)")
     args = a.parse_args(argv)
+    if args.rrd and not args.triad:
+        a.error("--rrd needs --triad")
+    if args.rrd:
+        _check_rrd_path(args.rrd)
     if args.triad:
-        for line in triad_report(triad_study(args.replicates)):
+        study = triad_study(args.replicates)
+        for line in triad_report(study):
             print(line, flush=True)
+        if args.rrd:
+            from fogbench.recording.attitude import write_attitude_recording
+
+            h = study["history"]
+            mag = write_attitude_recording(args.rrd, h["t"], h["truth"], h["estimates"],
+                                           title="triad attitude (bench attitude --triad)")
+            print(f"wrote {args.rrd} (orientation errors drawn magnified {mag:g} times; open "
+                  f"with: rerun {args.rrd})", flush=True)
         return 0
     for line in report(attitude_study(args.replicates, args.preset, hold_s=args.hold_s)):
         print(line, flush=True)
     return 0
 
-
-if __name__ == "__main__":
-    raise SystemExit(main())
 
 
 # ---------------------------------------------------------------------------------------------
@@ -226,6 +258,8 @@ def triad_study(replicates: int = 20, seed: int = 4300, align_s: float = 600.0,
     n_hold = int(round(hold_s * fs))
     cal_truth = test_truth = None
     out = []
+    shown: dict = {}            # the first replicate's integrated attitudes (the recording)
+    history = None
     for r in range(replicates):
         cal = simulate_run(rig, Run("calibration", seed + 2 * r, calibration_program(), None),
                            truth=cal_truth)
@@ -259,12 +293,16 @@ def triad_study(replicates: int = 20, seed: int = 4300, align_s: float = 600.0,
                "G_err_dph_per_g": (model.G - true_G) / DPH}
         for name, w in readings.items():
             est = integrate_attitude(C[n_al], w[n_al:] / fs, fs, latitude=lat)
+            if r == 0 and name != "truth":
+                shown[name] = est[:-1]
             idx = [e - n_al for e in ends.values()]
             err = attitude_errors(est[idx], C[[min(e, n - 1) for e in ends.values()]])
             res[name] = {k.replace("_rad", "_deg"): np.degrees(v) for k, v in err.items()}
         out.append(res)
+        if r == 0:
+            history = {"t": np.arange(n - n_al) / fs, "truth": C[n_al:], "estimates": shown}
     return {"runs": out, "ends": ["manoeuvre_end", "hold_end"], "true_M": true_M,
-            "true_G": true_G, "align_s": align_s, "hold_s": hold_s}
+            "true_G": true_G, "align_s": align_s, "hold_s": hold_s, "history": history}
 
 
 def triad_report(study: dict) -> list[str]:
@@ -294,3 +332,7 @@ def triad_report(study: dict) -> list[str]:
     lines.append(f"  the truth integrated (the strapdown algorithm's floor at {TRIAD_FS_HZ:g} Hz): "
                  f"at most {floor:.3g} arcsec")
     return lines
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -7,6 +7,7 @@ import math
 from pathlib import Path
 from typing import Any
 
+from fogbench.scenario.device_triad import check_triad_doc, is_triad, triad_fog
 from fogbench.scenario.tables import ScenarioError, _read_toml, _Table
 from fogcomp import units as U
 from sim.fog import TERMS, FogParams
@@ -171,6 +172,9 @@ def _fog(tbl: _Table, fs: float, scenario: bool = False
     ``scenario``: a scenario's table, whose sensitive ``axes`` are checked against the device's
     ``input_axis`` (:func:`_mounting`); a device file alone has no axes to check."""
     values, preset_name, source, changed = _base(tbl, fs)
+    if is_triad(values):    # a triad device file: each axis its own keys (device_triad)
+        fog, axes, thermal = triad_fog(values, tbl, fs, _fog)
+        return fog, preset_name, source, axes, thermal, changed
     merged = _Table(values, tbl.where, tbl.file)
     merged.used.add("source")
     kw: dict[str, Any] = {}
@@ -287,10 +291,12 @@ def load_device_file(path, fs: float | None = None) -> dict:
         if k in doc:
             raise ScenarioError(f"{file}: key '{k}': a device file holds the device's own keys "
                                 f"only ({k} is the scenario's choice, in its [fog] table)")
+    if is_triad(doc):
+        check_triad_doc(doc, file)
     for k, v in doc.items():
-        if isinstance(v, dict):
+        if isinstance(v, dict) and not is_triad(doc):
             raise ScenarioError(f"{file}: [{k}]: a device file has no tables, only the keys of "
-                                "a [fog] table")
+                                "a [fog] table (or, a triad's, the tables [x], [y], [z])")
     if not any(k != "source" for k in doc):
         raise ScenarioError(f"{file}: holds no [fog] keys (an empty device would be a perfect "
                             "gyro); write the device's keys, e.g. with fogbench device fit")

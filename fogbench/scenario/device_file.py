@@ -284,7 +284,9 @@ def load_device_file(path, fs: float | None = None) -> dict:
     of a scenario's ``[fog]`` table, datasheet units in their names, and ``source``), validated
     as a [fog] table of its own so that an error names the device file and its key. ``fs``: the
     scenario's sample rate (the checks that need it: the flicker band below Nyquist); None
-    checks at the highest rate a scenario may have."""
+    checks at the highest rate a scenario may have. A triad device file (tables ``[x]``,
+    ``[y]``, ``[z]``, :mod:`fogbench.scenario.device_triad`) has each table validated as one
+    gyro's keys, and its matrices and thermal build at the top level."""
     file = str(path)
     doc = _read_toml(path, "device file")
     for k in DEVICE_FILE_REFUSED:

@@ -7,7 +7,12 @@ import math
 from pathlib import Path
 from typing import Any
 
-from fogbench.scenario.device_triad import check_triad_doc, is_triad, triad_fog
+from fogbench.scenario.device_triad import (
+    G_SENS_LIMIT_DPH,
+    check_triad_doc,
+    is_triad,
+    triad_fog,
+)
 from fogbench.scenario.tables import ScenarioError, _read_toml, _Table
 from fogcomp import units as U
 from sim.fog import TERMS, FogParams
@@ -45,7 +50,6 @@ _FOG_KEYS = {
     "temp_cross_coeff_dph_per_c_per_c_per_min": ("temp_cross_coeff", U.DPH * 60.0, "float",
                                                  -1e4, 1e4),
 }
-G_SENS_LIMIT_DPH = 1e4       # deg/h per g (a DTG is ~10, MEMS ~100-1000)
 MISALIGNMENT_LIMIT_MRAD = 100.0
 
 

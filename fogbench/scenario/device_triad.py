@@ -38,6 +38,7 @@ CROSS_KEYS = ("Tw", "Tg_dph_per_g")
 THERMAL_BUILD_KEYS = ("temp_sensor_location", "temp_sensor_time_constant_s",
                       "temp_sensor_noise_c", "temp_sensor_resolution_c", "temp_sensor_rate_hz",
                       "temp_rate_window_s", "housing_time_constant_s", "coil_time_constant_s")
+G_SENS_LIMIT_DPH = 1e4       # deg/h per g (a DTG is ~10, MEMS ~100-1000)
 TW_DIAG_LIMIT = 0.1          # |Tw[a][a] - 1|: the scale factor's limit (1e5 ppm)
 TW_OFF_LIMIT = 0.1           # |Tw[a][b]|: the misalignment's limit (100 mrad)
 # a [fog] key an axis table may not set where a matrix gives it
@@ -113,8 +114,6 @@ def triad_fog(values: dict, tbl: _Table, fs: float, fog_one):
     Tw = _matrix(merged, "Tw", lambda i, j, x: abs(x - (i == j)) <= (
         TW_DIAG_LIMIT if i == j else TW_OFF_LIMIT), f"dimensionless; diagonal within 1 +- "
         f"{TW_DIAG_LIMIT:g}, off-diagonal within +-{TW_OFF_LIMIT:g}")
-    from fogbench.scenario.device_file import G_SENS_LIMIT_DPH
-
     Tg = _matrix(merged, "Tg_dph_per_g", lambda i, j, x: abs(x) <= G_SENS_LIMIT_DPH,
                  f"deg/h per g, each within +-{G_SENS_LIMIT_DPH:g}")
     top = {k: values[k] for k in THERMAL_BUILD_KEYS if k in values}

@@ -198,8 +198,10 @@ def simulate_fog(params: FogParams, fs: float, truth_rate: np.ndarray, specific_
 
     Parameters
     ----------
-    params : FogParams
-        Error parameters, SI.
+    params : FogParams, or a tuple of FogParams (one per axis of ``axes``)
+        Error parameters, SI: one set for every axis, or each axis its own (a triad device
+        file's axes): then each axis is simulated with its own set, exactly as it would be
+        alone (every stream is keyed by the body axis, not by the position in ``axes``).
     fs : float
         Sample rate, Hz.
     truth_rate : ndarray, shape (n, 3)
@@ -213,6 +215,9 @@ def simulate_fog(params: FogParams, fs: float, truth_rate: np.ndarray, specific_
     seed : int
         Seed of this power-on; each term and axis has its own stream derived from it.
     """
+    if isinstance(params, (tuple, list)):
+        return _simulate_triad(params, fs, truth_rate, specific_force, temp, temp_rate, axes,
+                               seed)
     truth_rate = np.asarray(truth_rate, dtype=float)
     f = np.asarray(specific_force, dtype=float)
     n = truth_rate.shape[0]
@@ -252,6 +257,26 @@ def simulate_fog(params: FogParams, fs: float, truth_rate: np.ndarray, specific_
     cont, saturated = _saturate(cont, p, enabled, terms)
     raw = _quantize(cont, p, enabled, terms, axes, fs, seed)
     return FogOutput(raw=raw, terms=terms, draws=draws, axes=tuple(axes), saturated=saturated)
+
+
+def _simulate_triad(params, fs, truth_rate, specific_force, temp, temp_rate, axes, seed
+                    ) -> FogOutput:
+    """:func:`simulate_fog` with one FogParams per axis: each axis simulated alone with its
+    own, the outputs set side by side (a term an axis does not have is zero there)."""
+    if len(params) != len(axes) or not all(isinstance(p, FogParams) for p in params):
+        raise ValueError(f"params: expected one FogParams per axis of {tuple(axes)}, got "
+                         f"{len(params)} item(s)")
+    outs = [simulate_fog(p, fs, truth_rate, specific_force, temp, temp_rate, axes=(a,),
+                         seed=seed) for p, a in zip(params, axes)]
+    n = outs[0].raw.shape[0]
+    terms = {t: np.column_stack([o.terms[t][:, 0] if t in o.terms else np.zeros(n)
+                                 for o in outs])
+             for t in TERMS if any(t in o.terms for o in outs)}
+    draws = {k: np.concatenate([o.draws[k] for o in outs], axis=0) for k in outs[0].draws}
+    sat = [o.saturated for o in outs]
+    saturated = (None if any(s is None for s in sat) else np.column_stack([s[:, 0] for s in sat]))
+    return FogOutput(raw=np.column_stack([o.raw[:, 0] for o in outs]), terms=terms, draws=draws,
+                     axes=tuple(axes), saturated=saturated)
 
 
 def _noise_terms(p: FogParams, fs: float, n: int, seed: int, ai: int, enabled) -> list:

@@ -98,9 +98,12 @@ def _ci(v) -> tuple[float, float, float]:
 
 
 def attitude_study(replicates: int = 20, preset: str = "navigation", align_s: float = 600.0,
-                   hold_s: float = 3600.0, seed: int = 4200) -> dict:
-    """Every replicate's results: {"runs": [per replicate], "times_s": [...]}."""
-    rig = _rig({"preset": preset, "axes": ["x", "y", "z"]}, FS_HZ)
+                   hold_s: float = 3600.0, seed: int = 4200, device: str | None = None) -> dict:
+    """Every replicate's results: {"runs": [per replicate], "times_s": [...]}. ``device``: a
+    device file instead of the preset (a triad device file: each gyro its own terms)."""
+    keys = {"device": device} if device else {"preset": preset}
+    rig = _rig({**keys, "axes": ["x", "y", "z"]}, FS_HZ)
+    preset = f"device file {device}" if device else preset
     runs, truth = [], None
     for r in range(replicates):
         res, truth = _one(rig, seed + r, align_s, hold_s, truth)
@@ -165,6 +168,9 @@ def main(argv=None) -> int:
     a.add_argument("--hold-s", type=float, default=3600.0)
     a.add_argument("--triad", action="store_true", help="the triad calibrated on the table, "
                    "then a manoeuvre (triad_study)")
+    a.add_argument("--device", metavar="DEVICE.toml", help="a device file instead of the "
+                   "preset (--triad: instead of TRIAD_KEYS); a triad device file ([x], [y], [z]) "
+                   "drives each gyro with its own terms and its Tw, Tg_dph_per_g")
     a.add_argument("--rrd", metavar="PATH", help="with --triad: write a Rerun recording of the "
                    "first replicate's integrated attitudes beside the true one (.rrd; refused "
                    "if PATH exists and is not a Rerun recording)")
@@ -173,8 +179,16 @@ def main(argv=None) -> int:
         a.error("--rrd needs --triad")
     if args.rrd:
         _check_rrd_path(args.rrd)
+    if args.device:
+        from fogbench.scenario import ScenarioError
+        from fogbench.scenario.device_file import load_device_file
+
+        try:
+            load_device_file(args.device)          # refused before any simulation
+        except ScenarioError as exc:
+            raise SystemExit(f"--device: {exc}") from None
     if args.triad:
-        study = triad_study(args.replicates)
+        study = triad_study(args.replicates, device=args.device)
         for line in triad_report(study):
             print(line, flush=True)
         if args.rrd:
@@ -186,7 +200,8 @@ def main(argv=None) -> int:
             print(f"wrote {args.rrd} (orientation errors drawn magnified {mag:g} times; open "
                   f"with: rerun {args.rrd})", flush=True)
         return 0
-    for line in report(attitude_study(args.replicates, args.preset, hold_s=args.hold_s)):
+    for line in report(attitude_study(args.replicates, args.preset, hold_s=args.hold_s,
+                                      device=args.device)):
         print(line, flush=True)
     return 0
 
@@ -236,7 +251,7 @@ def manoeuvre_program(align_s: float = 600.0, hold_s: float = 600.0):
 
 
 def triad_study(replicates: int = 20, seed: int = 4300, align_s: float = 600.0,
-                hold_s: float = 600.0) -> dict:
+                hold_s: float = 600.0, device: str | None = None) -> dict:
     """Per replicate: the triad calibrated on one power-on of the lab's program (its lab
     references, ``fogcomp.triad.fit_triad`` over :func:`fogcomp.triad.motion_blocks`), the
     fitted matrices against the configured ones (z-scores), then another power-on's manoeuvre
@@ -247,12 +262,14 @@ def triad_study(replicates: int = 20, seed: int = 4300, align_s: float = 600.0,
                                   true_attitude)
     from fogcomp.triad import fit_triad, motion_blocks
     from sim.lab import LabKnowledge, commanded_angles, lab_reference
+    from fogbench.scenario.device_triad import triad_matrices
     from sim.rig import Run, simulate_run
 
-    rig = _rig(TRIAD_KEYS, TRIAD_FS_HZ)
+    keys = TRIAD_KEYS if device is None else {"device": device, "axes": ["x", "y", "z"]}
+    rig = _rig(keys, TRIAD_FS_HZ)
     fs, lat = rig.fs, rig.table.latitude
-    true_M = np.eye(3) * (1.0 + rig.fog.scale_factor) + np.asarray(rig.fog.misalignment)
-    true_G = np.asarray(rig.fog.g_sens, dtype=float)
+    # the configured M and G: row a from gyro a's terms (a triad device file: each its own)
+    true_M, true_G = triad_matrices(rig.fog)
     n_al = int(round(align_s * fs))
     man = manoeuvre_program(align_s, hold_s)
     n_hold = int(round(hold_s * fs))
@@ -302,7 +319,8 @@ def triad_study(replicates: int = 20, seed: int = 4300, align_s: float = 600.0,
         if r == 0:
             history = {"t": np.arange(n - n_al) / fs, "truth": C[n_al:], "estimates": shown}
     return {"runs": out, "ends": ["manoeuvre_end", "hold_end"], "true_M": true_M,
-            "true_G": true_G, "align_s": align_s, "hold_s": hold_s, "history": history}
+            "true_G": true_G, "align_s": align_s, "hold_s": hold_s, "device": device,
+            "history": history}
 
 
 def triad_report(study: dict) -> list[str]:
@@ -311,15 +329,21 @@ def triad_report(study: dict) -> list[str]:
     z = np.array([np.concatenate([r["zM"].ravel(), r["zG"].ravel()]) for r in runs])
     inM = float(np.mean(np.abs(z[:, :9]) <= 1.96))
     inG = float(np.mean(np.abs(z[:, 9:]) <= 1.96))
-    lines = [f"a tactical FOG triad (cross-axis terms configured) calibrated on the table "
+    what = ("a tactical FOG triad (cross-axis terms configured)" if study.get("device") is None
+            else f"the FOG triad of {study['device']}")
+    lines = [f"{what} calibrated on the table "
              f"against the lab's references, over {R} power-ons: the fitted M's 9 entries "
              f"inside their 95 % intervals {inM:.0%} of the time, G's {inG:.0%} (nominal 95 %); "
              f"RMS error M {float(np.sqrt(np.mean([np.square(r['M_err_mrad']) for r in runs]))):.4f}"
              f" mrad, G {float(np.sqrt(np.mean([np.square(r['G_err_dph_per_g']) for r in runs]))):.3f}"
              " deg/h/g",
-             f"  the device: preset {TRIAD_KEYS['preset']} with misalignment_mrad "
-             f"{TRIAD_KEYS['misalignment_mrad']} and g_sens_dph_per_g "
-             f"{TRIAD_KEYS['g_sens_dph_per_g']} (illustrative, not a datasheet's)",
+             (f"  the device: preset {TRIAD_KEYS['preset']} with misalignment_mrad "
+              f"{TRIAD_KEYS['misalignment_mrad']} and g_sens_dph_per_g "
+              f"{TRIAD_KEYS['g_sens_dph_per_g']} (illustrative, not a datasheet's)"
+              if study.get("device") is None else
+              f"  the device: device file {study['device']} (M diagonal "
+              f"{np.round(np.diag(study['true_M']), 6).tolist()}, G "
+              f"{np.round(study['true_G'] / DPH, 4).tolist()} deg/h/g)"),
              f"  then another power-on: {study['align_s']:g} s alignment, a manoeuvre (a turn, "
              f"tilts about x and y), {study['hold_s']:g} s hold; mean [95 % interval], deg"]
     for key, label in (("orientation_error_deg", "orientation"), ("heading_error_deg",

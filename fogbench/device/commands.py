@@ -23,6 +23,8 @@ from fogbench.device.twin import (
     twin_curves,
 )
 from fogbench.device.file import (
+    TRIAD_NEEDS,
+    TriadFit,
     _device_params,
     _entry_interval,
     _is_device_file,
@@ -31,7 +33,11 @@ from fogbench.device.file import (
 )
 from fogbench.device.fit import earth_projection, fit_device
 from fogbench.device.logs import (
+    _channel,
     _check_reference_flag,
+    _read_static_log,
+    _static_of,
+    gyro_columns,
     _read_curve_axis,
     _read_multipos,
     _read_static,
@@ -41,6 +47,7 @@ from fogbench.formats.errors import LogError
 from fogbench.formats.table import fmt_number as _fmt_number
 from fogbench.logs.options import LogOptions
 from fogbench.outputs.folders import Outputs as _Outputs
+from fogbench.scenario.device_triad import THERMAL_BUILD_KEYS, TRIAD_AXES
 from fogcomp.units import DPH, DPS
 
 __all__ = ["ShowOptions", "FitOptions", "CheckOptions", "show", "schema", "fit", "check"]
@@ -127,9 +134,12 @@ def _write_noise_files(files, opts: ShowOptions, out: _Outputs, doc: dict, sourc
     except ScenarioError as exc:
         raise LogError(str(exc)) from None
     values = {}
+    triad = isinstance(params, tuple)     # a triad device file: Kalibr's one value per sensor
     for term, attr, key in (("N", "arw", "arw_deg_rt_h"), ("K", "rrw", "rrw_dph_rt_h")):
-        v = float(getattr(params, attr))
-        values["gyroscope", term] = (NoiseValue(v, f"the device's {key}", "the gyro", {})
+        v = max(float(getattr(p, attr)) for p in (params if triad else (params,)))
+        what = (f"the largest {key} over the triad's [x], [y], [z]" if triad
+                else f"the device's {key}")
+        values["gyroscope", term] = (NoiseValue(v, what, "the gyro", {})
                                      if v > 0 else f"the device has no {key} (0); fill it in")
     for term in ("N", "K"):
         values["accelerometer", term] = ("a device file describes a gyro, not an "
@@ -264,14 +274,19 @@ def _check_fit_flags(opts: FitOptions) -> float:
     return ci
 
 
-def _read_fit_logs(opts: FitOptions):
+def _read_fit_logs(opts: FitOptions, first=None):
     """(static logs, curve, thermal log, multi-position log) as :func:`fit_device` takes them,
     each log's summary said on stderr, and the multi-position log's gyro axis (None without
-    one); its axis and the static logs' must be one."""
+    one); its axis and the static logs' must be one. ``first``: the first static log, read
+    already (its summary said)."""
     statics = []
-    for p in opts.static:
-        s, log = _read_static(p, opts, acc=bool(opts.multipos), temp=bool(opts.thermal))
-        print(log.describe(), file=sys.stderr)
+    for k, p in enumerate(opts.static):
+        if k == 0 and first is not None:
+            log = first
+            s = _static_of(p, log, _channel(log, opts.axis, p), acc=bool(opts.multipos))
+        else:
+            s, log = _read_static(p, opts, acc=bool(opts.multipos), temp=bool(opts.thermal))
+            print(log.describe(), file=sys.stderr)
         statics.append(_stated_attitude(s, s.axis, opts))
     if len({s.axis for s in statics}) > 1:
         raise LogError("--static: the logs' gyro columns are on different body axes (" + ", ".join(
@@ -359,7 +374,14 @@ def fit(opts: FitOptions) -> int:
                         what="device file")
     if target.suffix != ".toml":
         raise LogError(f"--out {target}: a device file ends in .toml")
-    statics, curve, thermal, multipos, mp_axis = _read_fit_logs(opts)
+    first = None
+    if opts.static and opts.axis is None:     # a triad log (gyro_x, gyro_y, gyro_z)?
+        first = _read_static_log(opts.static[0], opts, acc=bool(opts.multipos),
+                                 temp=bool(opts.thermal))
+        print(first.describe(), file=sys.stderr)
+        if len(gyro_columns(first)) > 1:
+            return _fit_triad(opts, ci, out, target, first)
+    statics, curve, thermal, multipos, mp_axis = _read_fit_logs(opts, first)
     full_scale = None if opts.full_scale_dps is None else opts.full_scale_dps * DPS
     earth = None
     if opts.latitude_deg is not None:
@@ -380,6 +402,71 @@ def fit(opts: FitOptions) -> int:
     for n in result.notes:
         print(f"note: {n}")
     print(f"wrote {target}")
+    return 0
+
+
+def _triad_refusals(opts: FitOptions, path, cols: list[str]) -> None:
+    """What a triad fit does not take, refused before any fit (naming the log, its columns and
+    the flag)."""
+    if cols != [f"gyro_{a}" for a in TRIAD_AXES]:
+        raise LogError(f"{path}: {len(cols)} gyro columns ({', '.join(cols)}): a triad device "
+                       "file needs gyro_x, gyro_y and gyro_z; for a one-axis device file choose "
+                       "the column with --axis")
+    for flag, v in (("--curve", opts.curve), ("--thermal", opts.thermal),
+                    ("--multipos", opts.multipos), ("--latitude-deg", opts.latitude_deg),
+                    ("--input-axis", opts.input_axis), ("--heading-deg", opts.heading_deg)):
+        if v is not None:
+            raise LogError(f"{flag}: a triad fit ({path} has {', '.join(cols)} and no --axis "
+                           "was given) takes static logs only, each gyro's bias stated "
+                           "uncorrected for the Earth rate; fit one gyro at a time with --axis "
+                           "x, y or z to use " + flag)
+
+
+def _fit_triad(opts: FitOptions, ci: float, out: _Outputs, target: Path, first) -> int:
+    """``device fit`` on static logs with gyro_x, gyro_y and gyro_z and no ``--axis``: each
+    column fitted as the one-axis fit fits it (:func:`fit_device`, the column's body axis its
+    input axis), written as one triad device file (:class:`TriadFit`)."""
+    logs = [(opts.static[0], first)]
+    _triad_refusals(opts, opts.static[0], gyro_columns(first))
+    for p in opts.static[1:]:
+        log = _read_static_log(p, opts, temp=bool(opts.thermal))
+        print(log.describe(), file=sys.stderr)
+        _triad_refusals(opts, p, gyro_columns(log))
+        logs.append((p, log))
+    if any(abs(log.fs / logs[0][1].fs - 1.0) > 1e-3 for _, log in logs):
+        raise LogError("--static: the logs have different sample rates (" + ", ".join(
+            f"{p}: {log.fs:g} Hz" for p, log in logs) + "); a device file is fitted at one")
+    per_axis = {a: [_static_of(p, log, f"gyro_{a}") for p, log in logs] for a in TRIAD_AXES}
+    fits = {}
+    for a, statics in per_axis.items():
+        try:
+            fits[a] = fit_device(statics, None, None, ci, opts.min_tau_s, input_axis=a)
+        except ValueError as exc:
+            raise LogError(f"device fit: gyro_{a}: {exc}") from None
+        for e in fits[a].entries:
+            if e.key == "bias_dph":
+                e.source = e.source.replace(
+                    "(give --latitude-deg and --input-axis)", "(a triad fit takes no "
+                    "--latitude-deg: fit the gyro alone with --axis for that)")
+    inputs = [f"static log {p} ({log.channels['gyro_x'].size} samples at {log.fs:g} Hz, "
+              f"columns {', '.join(log.sources[f'gyro_{a}'] for a in TRIAD_AXES)})"
+              for p, log in logs]
+    result = TriadFit(axes=fits, ci=ci, inputs=inputs, options=_options_line(opts))
+    _write_device_file(out, target, result.to_toml())
+    w = max([36] + [len(e.key) for f in fits.values() for e in f.entries]
+            + [len(k) for f in fits.values() for k in f.undetermined])
+    for a, f in fits.items():
+        print(f"[{a}]")
+        for e in f.entries:
+            print(f"{e.key:<{w}} {_toml_value(e.value):>14} {_entry_interval(e)}")
+        for k, why in f.undetermined.items():
+            if k not in THERMAL_BUILD_KEYS:
+                print(f"{k:<{w}} {'-':>14}  {why}")
+        for n in f.notes:
+            print(f"note ({a}): {n}")
+    for k, why in TRIAD_NEEDS.items():
+        print(f"{k:<{w}} {'-':>14}  {why}")
+    print(f"wrote {target} (a triad device file: [x], [y], [z])")
     return 0
 
 
@@ -414,10 +501,16 @@ def _check_check_flags(opts: CheckOptions) -> None:
         raise LogError(f"--replicates: expected 19 (the fewest for a test at the 5 % level: "
                        f"p takes the values k / (replicates + 1)) to {MAX_CHECK_REPLICATES}, "
                        f"got {opts.replicates}")
+    from fogbench.scenario.device_triad import is_triad
+
     try:
-        load_device_file(opts.device)    # the device file first, before the log is read
+        doc = load_device_file(opts.device)    # the device file first, before the log is read
     except ScenarioError as exc:
         raise LogError(str(exc)) from None
+    if is_triad(doc) and opts.axis is None:
+        raise LogError(f"{opts.device}: a triad device file (tables [x], [y], [z]); device "
+                       "check compares one gyro with one column: choose it with --axis x, y or "
+                       "z (the log's column and the device's table of that axis)")
     if (opts.log is None) == (opts.curve is None):
         raise LogError("device check: give either LOG.csv or --curve CURVE.csv")
 
@@ -480,7 +573,7 @@ def check(opts: CheckOptions) -> int:
                              marker="device_check.json", recognise=_is_check_json,
                              members=[("device_check.png", lambda p: p.suffix == ".png")])
     curve, fs, segments, n, interval = _record_curve(opts)
-    params, _ = _device_params(opts.device, fs)
+    params, _ = _device_params(opts.device, fs, opts.axis)
     with Progress(opts.replicates, "twin") as bar:
         twin = twin_curves(params, fs, segments, curve.taus, opts.replicates,
                            seed=opts.seed, progress=lambda r: bar.advance())

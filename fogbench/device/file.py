@@ -13,7 +13,7 @@ from pathlib import Path
 
 from fogbench.formats.errors import LogError
 
-__all__ = ["MARKER", "preset_text", "DeviceFit"]
+__all__ = ["MARKER", "preset_text", "DeviceFit", "TriadFit"]
 
 MARKER = "# fogbench device fit"           # first line of a file this command wrote
 
@@ -106,14 +106,70 @@ class DeviceFit:
         for n in self.notes:
             out.append(f"# NOTE: {n}")
         out.append(f"source = {json.dumps('fitted by fogbench device fit to ' + ', '.join(self.inputs))}")
+        out += self.key_lines()
+        return "\n".join(out) + "\n"
+
+    def key_lines(self, leave_out=()) -> list[str]:
+        """Every determined key with its comment (source and interval), then the keys left
+        undetermined (comments), but for ``leave_out``: a one-axis file's body, or one axis
+        table of a triad's."""
+        out = []
         for e in self.entries:
+            if e.key in leave_out:
+                continue
             out.append(f"# {e.key}: {e.source}{_entry_interval(e)}")
             out.append(f"{e.key} = {_toml_value(e.value)}")
         out.append("# Not determined by these logs (the simulator's default applies):")
         for k, why in self.undetermined.items():
+            if k in leave_out:
+                continue
             default = _NEEDS.get(k, ("the simulator's (sim.fog.FogParams, sim.thermal)",))[0]
             out.append(f"#   {k}: default {default}; {why}")
+        return out
+
+
+@dataclass
+class TriadFit:
+    """A triad's fit: one :class:`DeviceFit` per axis (``axes``: "x" -> its fit), written as a
+    triad device file (``fogbench.scenario.device_triad``): each axis's keys in its table
+    ``[x]``, ``[y]``, ``[z]``; the cross-axis matrices (``Tw``, ``Tg_dph_per_g``) listed as not
+    determined (static logs cannot separate them)."""
+
+    axes: dict = field(default_factory=dict)
+    ci: float = 0.683
+    inputs: list = field(default_factory=list)
+    options: list = field(default_factory=list)
+
+    def to_toml(self) -> str:
+        out = [MARKER + " (this line lets a later fit with --overwrite replace the file)",
+               "# from: " + ", ".join(self.inputs),
+               "# options: " + (" ".join(self.options) or "(none)"),
+               f"# intervals: {self.ci:.1%} (the identifier's, or over the power-ons)",
+               "# a FOG triad: each gyro fitted alone, as a one-axis fit of its column (its "
+               "input axis its own body axis), in its table [x], [y], [z]"]
+        for a, f in self.axes.items():
+            out += [f"# NOTE ({a}): {n}" for n in f.notes]
+        out.append(f"source = {json.dumps('fitted by fogbench device fit to ' + ', '.join(self.inputs))}")
+        out.append("# Not determined by these logs (each axis's scale_factor_ppm, "
+                   "misalignment_mrad and g_sens_dph_per_g apply, default 0):")
+        for k, why in TRIAD_NEEDS.items():
+            out.append(f"#   {k}: {why}")
+        from fogbench.scenario.device_triad import THERMAL_BUILD_KEYS
+
+        out.append("#   " + ", ".join(THERMAL_BUILD_KEYS) + ": the triad's thermal build and "
+                   "temperature sensor, one for the three gyros (top level); the simulator's "
+                   "defaults")
+        for a, f in self.axes.items():
+            out += ["", f"[{a}]"] + f.key_lines(leave_out=THERMAL_BUILD_KEYS)
         return "\n".join(out) + "\n"
+
+
+TRIAD_NEEDS = {
+    "Tw": "the 3x3 scale-factor-and-misalignment matrix (dimensionless); needs a rate-table "
+          "calibration with rotations about each axis (fogcomp.triad.fit_triad)",
+    "Tg_dph_per_g": "the 3x3 g-sensitivity (deg/h per g); needs dwells at several attitudes "
+                    "against the lab's references (fogcomp.triad.fit_triad)",
+}
 
 
 def _entry_interval(e: Entry) -> str:
@@ -154,21 +210,34 @@ def _is_device_file(path: Path) -> bool:
         return False
 
 
-def _device_from_values(values: dict, fs: float):
-    """FogParams of a device file's keys (datasheet units) at sample rate ``fs``."""
+def _device_from_values(values: dict, fs: float, axis: str | None = None):
+    """FogParams of a device file's keys (datasheet units) at sample rate ``fs``; of a triad
+    device file, its gyro ``axis``'s (required: a one-axis consumer is handed one gyro)."""
     from fogbench.scenario.device_file import _fog
+    from fogbench.scenario.device_triad import is_triad
     from fogbench.scenario.tables import _Table
 
+    if is_triad(values):
+        if axis is None:
+            raise LogError("a triad device file (tables [x], [y], [z]) where one gyro is "
+                           "simulated: choose its gyro with --axis x, y or z")
+        values = {**values, "axes": [axis]}
     params, *_ = _fog(_Table(dict(values), "device", "fitted device"), fs)
     return params
 
 
-def _device_params(path, fs: float):
+def _device_params(path, fs: float, axis: str | None = None):
+    """(FogParams, the file's keys) of a device file; of a triad's, its gyro ``axis``'s (a
+    triad file without ``axis`` is refused, naming the file)."""
     from fogbench.scenario import ScenarioError
     from fogbench.scenario.device_file import load_device_file
+    from fogbench.scenario.device_triad import is_triad
 
     try:
         doc = load_device_file(path, fs)
     except ScenarioError as exc:
         raise LogError(str(exc)) from None
-    return _device_from_values(doc, fs), doc
+    if is_triad(doc) and axis is None:
+        raise LogError(f"{path}: a triad device file (tables [x], [y], [z]) where one gyro is "
+                       "simulated: choose its gyro with --axis x, y or z")
+    return _device_from_values(doc, fs, axis), doc

@@ -29,9 +29,23 @@ def _read_static(path, opts, acc: bool = False, temp: bool = False) -> tuple[Sta
     """One gyro channel of a static log; with ``temp``, its temperature column too where it
     has one; with ``acc``, its accelerometer columns where it has all three (their mean
     specific force in g: the log's attitude)."""
+    log = _read_static_log(path, opts, acc, temp)
+    return _static_of(path, log, _channel(log, opts.axis, path), acc), log
+
+
+def _read_static_log(path, opts, acc: bool = False, temp: bool = False):
+    """A static log as read (its ``--axis`` gyro column, or every gyro column)."""
     chans = [f"gyro_{opts.axis}"] if opts.axis else ["gyro_*"]
-    log = opts.read(path, chans + (["acc_*?"] if acc else []) + (["temp?"] if temp else []))
-    ch = _channel(log, opts.axis, path)
+    return opts.read(path, chans + (["acc_*?"] if acc else []) + (["temp?"] if temp else []))
+
+
+def gyro_columns(log) -> list[str]:
+    """The log's gyro channels, sorted (gyro_x, gyro_y, gyro_z)."""
+    return sorted(c for c in log.channels if c.startswith("gyro_"))
+
+
+def _static_of(path, log, ch: str, acc: bool = False) -> StaticLog:
+    """The gyro channel ``ch`` of a static log as read: a :class:`StaticLog`."""
     if log.units[ch] == "au":
         raise LogError(f"{path}: column {log.sources[ch]!r} is in raw counts (au); a device "
                        "file needs a rate unit (dps, rps, dph)")
@@ -43,7 +57,7 @@ def _read_static(path, opts, acc: bool = False, temp: bool = False) -> tuple[Sta
     temp = log.channels.get("temp")
     return StaticLog(str(path), v, log.fs, tuple(log.segments), log.sources[ch], f=f,
                      f_source=src, axis=ch.removeprefix("gyro_"), temp=temp,
-                     temp_source=log.sources.get("temp", "")), log
+                     temp_source=log.sources.get("temp", ""))
 
 
 def _attitude(path, log) -> tuple[tuple | None, str]:

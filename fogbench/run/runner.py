@@ -309,18 +309,20 @@ def _lab_references(sc, plan, data: dict, seeds: dict) -> dict:
             for name, rd in data.items()}
 
 
-def _score_references(items: list[Scored], sc) -> None:
+def _score_references(items: list[Scored], sc, axis_j: int = 0) -> None:
     """Score raw, the oracle and (where it is computed) the filter oracle on every piece; where
-    the filter oracle's noise model does not hold, its entry says so (no value, the reason)."""
+    the filter oracle's noise model does not hold, its entry says so (no value, the reason).
+    ``axis_j``: the sensitive axis scored (a triad device file's axes have their own terms)."""
+    fog = sc.fog[axis_j] if isinstance(sc.fog, tuple) else sc.fog
     for it in items:
         it.outputs["raw"] = it.piece.raw
         it.outputs["oracle"] = it.piece.oracle
         it.metrics["raw"] = score(it.piece.raw, it.piece)
         it.metrics["oracle"] = score(it.piece.oracle, it.piece, it.metrics["raw"])
-        of = oracle_filter(it.piece, sc.fog, sc.fs)
+        of = oracle_filter(it.piece, fog, sc.fs)
         if of is not None:
             it.metrics["oracle_filter"] = score(of, it.piece, it.metrics["raw"])
-        elif it.piece.unmodelled and oracle_filter_reason(it.piece, sc.fog, sc.fs) == \
+        elif it.piece.unmodelled and oracle_filter_reason(it.piece, fog, sc.fs) == \
                 outside_model_reason(it.piece.unmodelled):
             # a piece it would apply to but whose terms its model lacks: no value, the reason
             # (the other pieces, moving, smoothed, gapped, long, are not the filter oracle's)
@@ -418,7 +420,7 @@ def _run_protocol(prot, sc, plan, data: dict, axis_j: int, lab_refs: dict, repli
         pieces = [make_piece(data[s.run], s, prot, axis_j, lab_refs.get(s.run))
                   for s in score_sel]
         items = [Scored(prot.name, p.run, p) for p in pieces]
-        _score_references(items, sc)
+        _score_references(items, sc, axis_j)
         for ms in plan.methods:
             say(f"{prot.name}: fit {ms.label} on {', '.join(s.describe() for s in fit_sel)}")
             seeded = ms.failed is None and fogcomp.get_method(ms.name).random and \

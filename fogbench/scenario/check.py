@@ -46,6 +46,12 @@ def _check_one(path: str, first_file: dict) -> str:
         except ScenarioError as exc:
             raise ScenarioError(f"{exc} (checked as a device file: it has none of a "
                                 "scenario's tables, [scenario], [[runs]], [fog], ...)") from None
+        from fogbench.scenario.device_triad import TRIAD_AXES, is_triad
+
+        if is_triad(vals):
+            return (f"{path}: ok: triad device file, " + ", ".join(
+                f"[{a}] {len(vals[a])} key(s)" for a in TRIAD_AXES) + ", top level "
+                f"{len(set(vals) - {'source', *TRIAD_AXES})} key(s)")
         return f"{path}: ok: device file, {len(set(vals) - {'source'})} key(s)"
     sc = load_scenario(path, extra_sections=RUNNER_SECTIONS)
     plan = load_plan(sc)

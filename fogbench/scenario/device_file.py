@@ -7,6 +7,12 @@ import math
 from pathlib import Path
 from typing import Any
 
+from fogbench.scenario.device_triad import (
+    G_SENS_LIMIT_DPH,
+    check_triad_doc,
+    is_triad,
+    triad_fog,
+)
 from fogbench.scenario.tables import ScenarioError, _read_toml, _Table
 from fogcomp import units as U
 from sim.fog import TERMS, FogParams
@@ -44,7 +50,6 @@ _FOG_KEYS = {
     "temp_cross_coeff_dph_per_c_per_c_per_min": ("temp_cross_coeff", U.DPH * 60.0, "float",
                                                  -1e4, 1e4),
 }
-G_SENS_LIMIT_DPH = 1e4       # deg/h per g (a DTG is ~10, MEMS ~100-1000)
 MISALIGNMENT_LIMIT_MRAD = 100.0
 
 
@@ -171,6 +176,9 @@ def _fog(tbl: _Table, fs: float, scenario: bool = False
     ``scenario``: a scenario's table, whose sensitive ``axes`` are checked against the device's
     ``input_axis`` (:func:`_mounting`); a device file alone has no axes to check."""
     values, preset_name, source, changed = _base(tbl, fs)
+    if is_triad(values):    # a triad device file: each axis its own keys (device_triad)
+        fog, axes, thermal = triad_fog(values, tbl, fs, _fog)
+        return fog, preset_name, source, axes, thermal, changed
     merged = _Table(values, tbl.where, tbl.file)
     merged.used.add("source")
     kw: dict[str, Any] = {}
@@ -280,17 +288,21 @@ def load_device_file(path, fs: float | None = None) -> dict:
     of a scenario's ``[fog]`` table, datasheet units in their names, and ``source``), validated
     as a [fog] table of its own so that an error names the device file and its key. ``fs``: the
     scenario's sample rate (the checks that need it: the flicker band below Nyquist); None
-    checks at the highest rate a scenario may have."""
+    checks at the highest rate a scenario may have. A triad device file (tables ``[x]``,
+    ``[y]``, ``[z]``, :mod:`fogbench.scenario.device_triad`) has each table validated as one
+    gyro's keys, and its matrices and thermal build at the top level."""
     file = str(path)
     doc = _read_toml(path, "device file")
     for k in DEVICE_FILE_REFUSED:
         if k in doc:
             raise ScenarioError(f"{file}: key '{k}': a device file holds the device's own keys "
                                 f"only ({k} is the scenario's choice, in its [fog] table)")
+    if is_triad(doc):
+        check_triad_doc(doc, file)
     for k, v in doc.items():
-        if isinstance(v, dict):
+        if isinstance(v, dict) and not is_triad(doc):
             raise ScenarioError(f"{file}: [{k}]: a device file has no tables, only the keys of "
-                                "a [fog] table")
+                                "a [fog] table (or, a triad's, the tables [x], [y], [z])")
     if not any(k != "source" for k in doc):
         raise ScenarioError(f"{file}: holds no [fog] keys (an empty device would be a perfect "
                             "gyro); write the device's keys, e.g. with fogbench device fit")

@@ -263,7 +263,10 @@ def test_fit_cli_writes_a_device_file_that_a_scenario_runs(tmp_path):
     (["--static", "{log}", "--latitude-deg", "45", "--input-axis", "level"], "--heading-deg"),
     (["--static", "{log}", "--ci", "1.5"], "--ci"),
     (["--static", "{missing}"], "missing.csv"),
-    (["--static", "{three}"], "--axis"),
+    # three gyro columns without --axis are a triad fit (tests/device/test_device_triad.py);
+    # two are neither one gyro nor a triad
+    (["--static", "{two}"], "2 gyro columns (gyro_x, gyro_y): a triad device file needs"),
+    (["--static", "{three}", "--thermal", "{log}"], "--thermal: a triad fit"),
     (["--static", "{log}", "--out", "{log}"], "input"),
 ])
 def test_fit_cli_refuses_bad_input_and_writes_nothing(tmp_path, extra, msg):
@@ -271,11 +274,14 @@ def test_fit_cli_refuses_bad_input_and_writes_nothing(tmp_path, extra, msg):
     three = tmp_path / "three.csv"
     three.write_text("time_s,gyro_x_dps,gyro_y_dps,gyro_z_dps\n" + "".join(
         f"{i / 10:.1f},{np.sin(i)},{np.cos(i)},{np.sin(2 * i)}\n" for i in range(200)))
+    two = tmp_path / "two.csv"
+    two.write_text("time_s,gyro_x_dps,gyro_y_dps\n" + "".join(
+        f"{i / 10:.1f},{np.sin(i)},{np.cos(i)}\n" for i in range(200)))
     mp = tmp_path / "multipos.csv"
     mp.write_text("time_s,gyro_z_dps,acc_x_g,acc_y_g,acc_z_g,ref_dps\n" + "".join(
         f"{i / 10:.1f},{np.sin(i)},0,0,{1 if i < 100 else -1},0.004\n" for i in range(200)))
     before = sorted(p.name for p in tmp_path.iterdir())
-    args = [a.format(log=log, missing=tmp_path / "missing.csv", three=three, mp=mp)
+    args = [a.format(log=log, missing=tmp_path / "missing.csv", three=three, two=two, mp=mp)
             for a in extra]
     if "--out" not in args:
         args += ["--out", str(tmp_path / "out" / "dev.toml")]

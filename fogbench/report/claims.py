@@ -45,7 +45,8 @@ ORACLE_TEXT = {"oracle": "oracle: the true error terms removed (no model of them
                "oracle_filter": "oracle_filter: the best filter given the true noise model"}
 METRIC_NAMES = {"std_dps": "output std", "rmse_dph": "RMS error",
                 "drift_rms_dph": "drift RMS", "bias_stability_100s_dph": "bias stability (100 s)",
-                "coef_rms_error_dph": "coefficient error RMS", "mean_error_dph": "mean error"}
+                "coef_rms_error_dph": "coefficient error RMS", "mean_error_dph": "mean error",
+                "angle_error_max_deg": "largest integrated angle error"}
 
 
 def claim_figure_name(i: int) -> str:

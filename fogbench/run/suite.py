@@ -24,8 +24,8 @@ from fogbench.scenario.load import RUNNER_SECTIONS
 __all__ = ["run_suite", "check_bounds", "summary_markdown"]
 
 SUMMARY_METRICS = ("std_dps", "rmse_dph", "drift_rms_dph", "bias_stability_100s_dph",
-                   "angle_error_final_deg", "coef_rms_error_dph", "improvement_rmse_pct",
-                   "fit_time_s")
+                   "angle_error_final_deg", "angle_error_max_deg", "coef_rms_error_dph",
+                   "improvement_rmse_pct", "fit_time_s")
 
 
 def _values(doc: dict, protocol: str, method: str, metric: str, run: str | None):
@@ -239,6 +239,38 @@ def _ranking_lines(rankings: list[dict]) -> list[str]:
     return L
 
 
+#: The attitude-level metric the methods are also ordered by (issue 42): the largest angle the
+#: output minus the truth accumulates about the gyro's input axis over a scored run.
+ATTITUDE_METRIC = "angle_error_max_deg"
+
+
+def _attitude_order_lines(mc: dict, plan) -> list[str]:
+    """Per protocol, the methods (raw and oracle included) ordered by the mean over replicates of
+    the scenario's rate metric (its first claim's, else ``rmse_dph``) and by the attitude metric,
+    with the places that change; ties and methods without both metrics are left out."""
+    rate = next((c.metric for c in plan.claims if c.metric != ATTITUDE_METRIC), "rmse_dph")
+    L = []
+    for pname, po in mc["over_runs"].items():
+        means = {}
+        for lab, by_metric in po.items():
+            a, b = by_metric.get(rate) or {}, by_metric.get(ATTITUDE_METRIC) or {}
+            if a.get("n") and b.get("n"):
+                means[lab] = (a["mean"], b["mean"])
+        if len(means) < 2:
+            continue
+        by_rate = sorted(means, key=lambda k: means[k][0])
+        by_att = sorted(means, key=lambda k: means[k][1])
+        moved = [f"{lab} {by_rate.index(lab) + 1} -> {by_att.index(lab) + 1}"
+                 for lab in by_rate if by_rate.index(lab) != by_att.index(lab)]
+        L.append(f"- `{pname}`: by {rate}: {' < '.join(by_rate)}; by {ATTITUDE_METRIC}: "
+                 f"{' < '.join(by_att)}" + (f" (places changed: {', '.join(moved)})" if moved
+                                            else " (the same order)") + ".")
+    if not L:
+        return []
+    return (["Ranking by rate and by attitude (means over replicates; each method's interval "
+             "is in the table above):", ""] + L + [""])
+
+
 def _scenario_lines(r: dict, plans: dict) -> list[str]:
     """One scenario's section: its tables, claims, maps, rankings and notes (or its failure)."""
     name = r["name"]
@@ -259,6 +291,7 @@ def _scenario_lines(r: dict, plans: dict) -> list[str]:
             L += _map_lines(name, doc["map"])
         if mc["rankings"]:
             L += _ranking_lines(mc["rankings"])
+        L += _attitude_order_lines(mc, plan)
     else:
         verdicts = claim_verdicts(plan, doc)
         if verdicts:

@@ -95,8 +95,9 @@ def identify_noise_model(taus, avar, fs: float, n, *, model=None, ci: float | No
         a_dof = t.size - alt.spec.n_params
         a_p = float(chi2.sf(alt.J, a_dof)) if a_dof > 0 else float("nan")
         a_scale = alt.J / a_dof if a_dof > 0 and a_p < 0.05 else 1.0
+        # no further Gauss-Markov term's bound for the alternative (the selection has it)
         a_terms = _model_terms(_Report.of(pb, alt, a_scale, ci, False, alpha, False), {},
-                               [], max_gm)
+                               [], len(alt.spec.gm))
         other = model(alt, a_terms, [log[-1]], a_scale, a_p, a_dof)
     return model(fit, terms, log, scale, p_value, dof, other)
 

@@ -73,7 +73,7 @@ def test_a_method_failing_in_every_replicate_is_listed_last_everywhere(tmp_path,
     assert short.index("wavelet_soft") < short.index(f"failed: Raises ({FAILED})"), short
     for prot in ("p", "p.ideal"):
         rows = _table_after(lines, f"### `{prot}`: mean over scored runs, over replicates")
-        assert rows[-1] == f"| Raises | {FAILED} | – | – | – |", rows
+        assert rows[-1] == f"| Raises | {FAILED} | – | – | – | – |", rows
         assert rows[-2].startswith("| wavelet_soft | "), rows
     cost = _table_after(lines, "### What the lab's references cost")
     assert cost[-1] == f"| `p` | Raises | – | {FAILED} | {FAILED} | – | – |", cost

@@ -562,7 +562,8 @@ def noise_terms(rate, fs: float) -> dict:
     d = None if np.ptp(x) == 0 else oadev_details(x, fs)
     if d is None or not np.all(d.adev > 0) or d.taus.shape[0] < 3:
         return {k: None for k in _ALLAN_KEYS}
-    nm = identify_noise_model(d.taus, d.adev**2, fs, x.shape[0], record_length=False)
+    nm = identify_noise_model(d.taus, d.adev**2, fs, x.shape[0], record_length=False,
+                              alternative=False)
     out = nm.datasheet_values()
     fr = nm.floor_reading.get("value")
     out["bias_instability_floor_dph"] = None if fr is None else float(fr / DPH)

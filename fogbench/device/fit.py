@@ -228,7 +228,7 @@ def _noise_model(fit: DeviceFit, static: list, curve, ci: float, min_tau):
             raise ValueError(f"--min-tau-s {min_tau:g}: leaves {int(keep.sum())} averaging "
                              "times of the curve; at least 3 are needed")
         model = identify_noise_model(np.asarray(taus)[keep], np.asarray(avar)[keep], fs, n,
-                                     ci=ci)
+                                     ci=ci, alternative=False)
         origin = f"the Allan curve {name}"
         fit.inputs.append(f"Allan curve {name} ({n} samples at {fs:g} Hz)")
     for log in static:
@@ -261,7 +261,7 @@ def _pooled_static_model(fit: DeviceFit, static: list, ci: float, min_tau):
     joined = StaticLog(pool[0].name if len(pool) == 1 else f"the {len(pool)} static logs "
                        "pooled", np.concatenate([s.rate for s in pool]), fs, tuple(segs))
     _, model = allan_analysis(joined.rate, fs, _octaves(joined, min_tau), ci=ci,
-                              segments=segs)
+                              segments=segs, alternative=False)
     if len(pool) == 1:
         where = f"the static log {pool[0].name}"
     else:

@@ -134,7 +134,8 @@ def _noise_model(err, fs: float):
     d = oadev_details(err, fs)
     if not np.all(d.adev > 0) or d.taus.shape[0] < 3:
         return None
-    return identify_noise_model(d.taus, d.adev**2, fs, err.shape[0], record_length=False)
+    return identify_noise_model(d.taus, d.adev**2, fs, err.shape[0], record_length=False,
+                                alternative=False)
 
 
 def fig_allan(it, path: Path, plan=None) -> bool:

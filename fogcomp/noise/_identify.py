@@ -14,12 +14,12 @@ from ._fit import _fisher_inverse, _Fit, _jacobian, _param_cov, _pilot, _Problem
 from ._intervals import _interval_sqrt, _record_for, _score_interval, _tau_interval
 from ._processes import FLICKER_FLOOR, LINEAR_TERMS, avar_gm, parse_model
 from ._result import ModelTerm, NoiseModel
-from ._select import _alternative, _gm_threshold, _saturated, _select
+from ._select import _alternative, _gm_threshold, _saturated, _select, _weak_terms
 
 
 def identify_noise_model(taus, avar, fs: float, n, *, model=None, ci: float | None = None,
                          alpha: float = 0.01, max_gm: int = 3, model_error: float = 0.001,
-                         record_length: bool = True) -> NoiseModel:
+                         record_length: bool = True, alternative: bool = True) -> NoiseModel:
     """Identify the noise model of a record from its overlapping Allan variance.
 
     The estimator, the model selection and the intervals are described in the docstring of
@@ -60,6 +60,11 @@ def identify_noise_model(taus, avar, fs: float, n, *, model=None, ci: float | No
     record_length : bool, optional
         Predict, for each identified term known to worse than 10 %, the record length that
         would give 10 % (default True; a few more covariance evaluations).
+    alternative : bool, optional
+        When the selection holds flicker or a Gauss-Markov term, fit the other reading of that
+        feature and report it (``NoiseModel.alternative``) when it fits as well (default True;
+        up to about 1.5 times the identification's time). False: the selection only (the
+        bench's per-method metrics, which read the selected terms).
 
     Returns
     -------
@@ -80,7 +85,8 @@ def identify_noise_model(taus, avar, fs: float, n, *, model=None, ci: float | No
     scale = fit.J / dof if dof > 0 and p_value < 0.05 else 1.0
     terms = _model_terms(_Report.of(pb, fit, scale, ci, stated is not None, alpha,
                                     record_length), weak, log, max_gm)
-    alt = None if stated is not None else _alternative(pb, fit, weak, alpha, max_gm, log)
+    alt = None if stated is not None or not alternative else \
+        _alternative(pb, fit, weak, alpha, max_gm, log)
     floor = _floor_reading(t, v, cov_v)
 
     def model(f, terms, log, scale, p_value, dof, alternative=None):
@@ -95,10 +101,20 @@ def identify_noise_model(taus, avar, fs: float, n, *, model=None, ci: float | No
         a_dof = t.size - alt.spec.n_params
         a_p = float(chi2.sf(alt.J, a_dof)) if a_dof > 0 else float("nan")
         a_scale = alt.J / a_dof if a_dof > 0 and a_p < 0.05 else 1.0
-        # no further Gauss-Markov term's bound for the alternative (the selection has it)
-        a_terms = _model_terms(_Report.of(pb, alt, a_scale, ci, False, alpha, False), {},
-                               [], len(alt.spec.gm))
-        other = model(alt, a_terms, [log[-1]], a_scale, a_p, a_dof)
+        # its IEEE terms tested as the selection's are (a term the selection found weak is
+        # not called identified in the alternative); no bounds of the terms it leaves out or
+        # of a further Gauss-Markov term (the selection has them)
+        a_log = [log[-1]]
+        a_weak = _weak_terms(pb, alt, alpha, a_log)
+        a_terms = _model_terms(_Report.of(pb, alt, a_scale, ci, False, alpha, False), a_weak,
+                               [], len(alt.spec.gm), bounds=False)
+        head = f"the alternative reading ({alt.spec.label()}): "
+        swapped = (f"fits as well as the selection, {fit.spec.label()} (J {alt.J:.4g} and "
+                   f"{fit.J:.4g})")
+        a_terms = [replace(x, reason=head + (swapped if x.term == "GM" and x.in_model
+                                             and x.status == "identified" else x.reason))
+                   for x in a_terms]
+        other = model(alt, a_terms, a_log, a_scale, a_p, a_dof)
     return model(fit, terms, log, scale, p_value, dof, other)
 
 
@@ -261,7 +277,8 @@ class _Report:
                    stated, alpha, record_length)
 
 
-def _model_terms(r: _Report, weak: dict, log: list, max_gm: int) -> list:
+def _model_terms(r: _Report, weak: dict, log: list, max_gm: int,
+                 bounds: bool = True) -> list:
     """Every candidate term: the five IEEE terms in their order (each in the model, or left
     out), the model's Gauss-Markov terms by correlation time (keys ``GM1``, ``GM2``, ...) and,
     when it holds fewer than ``max_gm``, a further one's bound (the next key)."""
@@ -272,7 +289,9 @@ def _model_terms(r: _Report, weak: dict, log: list, max_gm: int) -> list:
     # the terms left out: a one-sided 95 % upper bound from the model with the term forced in
     for term in LINEAR_TERMS:
         if term not in terms:
-            terms[term] = _left_out_term(r, term, log)
+            terms[term] = _left_out_term(r, term, log) if bounds else ModelTerm(
+                term, "not identified", None, None, None, None,
+                "not in this model (its bound is the selection's)")
     if len(gms) < max_gm:
         try:
             gms.append(_gm_bound_term(r))

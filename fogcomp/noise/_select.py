@@ -107,6 +107,12 @@ def _select(pb: _Problem, alpha: float, max_gm: int, log: list) -> tuple[_Fit, d
         log.append(f"dropped GM({cur.spec.gm[k]:.3g} s): removing it raises J by only {r:.3g} "
                    f"(< {need:.3g})")
         cur = pb.refine(_drop(cur.spec, k))
+    return cur, _weak_terms(pb, cur, alpha, log)
+
+
+def _weak_terms(pb: _Problem, cur: _Fit, alpha: float, log: list) -> dict:
+    """The IEEE terms of ``cur`` whose removal raises J by less than one term's critical
+    value: term -> (rise, critical value); each said in ``log``."""
     weak = {}
     for t in cur.spec.linear:
         if len(cur.spec.linear) + len(cur.spec.gm) == 1:
@@ -117,7 +123,7 @@ def _select(pb: _Problem, alpha: float, max_gm: int, log: list) -> tuple[_Fit, d
             log.append(f"{t} not significant: removing it raises J by only {rise:.3g} "
                        f"(< {_threshold(1, alpha):.3g}); kept in the model for the others' "
                        "sake, reported as an upper bound")
-    return cur, weak
+    return weak
 
 
 def _saturated(pb: _Problem, alpha: float, max_gm: int) -> _Fit:

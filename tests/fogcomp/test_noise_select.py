@@ -120,3 +120,4 @@ def test_the_tau_interval_equals_its_slow_twin_on_a_dense_grid():
     assert inside[0] / step <= lo <= inside[0] * step
     assert inside[-1] / step <= hi <= inside[-1] * step
     assert lo < fit.spec.gm[0] < hi
+

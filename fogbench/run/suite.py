@@ -268,7 +268,8 @@ def _attitude_order_lines(mc: dict, plan) -> list[str]:
     if not L:
         return []
     return (["Ranking by rate and by attitude (means over replicates; each method's interval "
-             "is in the table above):", ""] + L + [""])
+             "is in the table above, and an order between overlapping intervals is no "
+             "verdict):", ""] + L + [""])
 
 
 def _scenario_lines(r: dict, plans: dict) -> list[str]:

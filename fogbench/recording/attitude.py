@@ -39,6 +39,41 @@ def magnification(max_error_deg: float, shown_deg: float = 15.0) -> float:
     return float(max(1.0, 10.0 ** math.floor(math.log10(shown_deg / max_error_deg))))
 
 
+def _colour_name(c) -> str:
+    return {(214, 39, 40): "red", (255, 127, 14): "orange", (31, 119, 180): "blue",
+            (44, 160, 44): "green"}.get(tuple(c) if c else None, "purple")
+
+
+def _blueprint(t_end: float):
+    """The 3D view of the bodies beside one plot of every error over the whole integration,
+    and the README under it."""
+    import rerun as rr
+    import rerun.blueprint as rrb
+
+    whole = rrb.VisibleTimeRange("time", start=rrb.TimeRangeBoundary.infinite(),
+                                 end=rrb.TimeRangeBoundary.infinite())
+    axis = rrb.TimeAxis(view_range=rr.TimeRange(start=rrb.TimeRangeBoundary.absolute(seconds=0.0),
+                                                end=rrb.TimeRangeBoundary.absolute(seconds=t_end)))
+    return rrb.Blueprint(
+        rrb.Horizontal(
+            rrb.Spatial3DView(name="attitude: truth (grey) and integrated (errors magnified)",
+                              origin="/attitude", contents=["+ /attitude/**",
+                                                            "- /attitude/error/**",
+                                                            "- /attitude/README"],
+                              # from the south-west and above (NED: up is -z), 0.5 m off
+                              eye_controls=rrb.EyeControls3D(position=(-0.28, -0.32, -0.28),
+                                                             look_target=(0.0, 0.0, 0.0),
+                                                             eye_up=(0.0, 0.0, -1.0))),
+            rrb.Vertical(
+                rrb.TimeSeriesView(name="orientation error, deg (not magnified)",
+                                   origin="/attitude/error", time_ranges=[whole], axis_x=axis,
+                                   plot_legend=rrb.PlotLegend(visible=True, corner="LeftTop")),
+                rrb.TextDocumentView(name="what this shows", origin="/attitude/README"),
+                row_shares=[3, 1]),
+            column_shares=[1, 1]),
+        rrb.TimePanel(timeline="time"), collapse_panels=False)
+
+
 def write_attitude_recording(path, t, truth, estimates: dict, title: str = "attitude",
                              magnify: float | None = None, max_points: int = 20_000) -> float:
     """Write ``path`` (.rrd): the truth and each estimate (scipy Rotations of ``len(t)``, body
@@ -66,11 +101,12 @@ def write_attitude_recording(path, t, truth, estimates: dict, title: str = "atti
     mem = rec.memory_recording()
     try:
         rec.log("/attitude", rr.ViewCoordinates.RIGHT_HAND_Z_DOWN, static=True)
+        colours = ", ".join(f"{k} {_colour_name(COLORS.get(k))}" for k in estimates)
         rec.log("/attitude/README", rr.TextDocument(
             f"# {title}\n\nThe grey solid body is the triad at its true attitude (NED: x north, "
             "y east, z down). Each wire frame is the attitude integrated from one reading's "
-            f"rates, with its orientation error **magnified {mag:g} times** so that it can be "
-            "seen; the plots under /attitude/error hold the errors in degrees, not magnified. "
+            f"rates ({colours}), with its orientation error **magnified {mag:g} times** so "
+            "that it can be seen; the plot holds the errors in degrees, not magnified. "
             f"Largest error: {big:.4g} deg.", media_type="text/markdown"), static=True)
         tcol = [rr.TimeColumn("time", duration=np.rint(t[s] * 1e9).astype("timedelta64[ns]"))]
         rec.log("/attitude/truth", rr.Boxes3D(half_sizes=[CASE_HALF_M], colors=[COLORS["truth"]],
@@ -82,13 +118,15 @@ def write_attitude_recording(path, t, truth, estimates: dict, title: str = "atti
             shown = truth[s] * Rotation.from_rotvec(mag * v)
             rec.log(f"/attitude/{name}", rr.Boxes3D(
                 half_sizes=[tuple(1.02 * h for h in CASE_HALF_M)], colors=[color],
-                labels=[f"{name} (error x{mag:g})"], show_labels=True), static=True)
+                labels=[f"{name} (error x{mag:g})"], show_labels=False), static=True)
             rec.send_columns(f"/attitude/{name}", indexes=tcol, columns=rr.Transform3D.columns(
                 quaternion=np.ascontiguousarray(shown.as_quat())))
             rec.log(f"/attitude/error/{name}", rr.SeriesLines(colors=[color], names=[
                 f"{name} orientation error, deg"]), static=True)
             rec.send_columns(f"/attitude/error/{name}", indexes=tcol,
                              columns=rr.Scalars.columns(scalars=err_deg[name]))
+        rec.send_blueprint(_blueprint(t[-1] if t.size else 0.0), make_active=True,
+                           make_default=True)
         rec.flush()
         data = mem.drain_as_bytes()
     finally:

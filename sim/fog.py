@@ -236,15 +236,18 @@ def simulate_fog(params: FogParams, fs: float, truth_rate: np.ndarray, specific_
              "g_sens": np.array(np.broadcast_to(np.asarray(p.g_sens, dtype=float), (na, 3))),
              "g2_sens": np.array(np.broadcast_to(np.asarray(p.g2_sens, dtype=float), (na, 6)))}
     per_axis: dict[str, list] = {}  # term -> [array (n,) or None per axis]
-    # the rate and force components as contiguous rows: elementwise work on a column of an
-    # (n, 3) array strides through memory, 2-4 times slower (the same operations, the same sums)
-    rows = np.ascontiguousarray(truth_rate.T), np.ascontiguousarray(f.T)
+    # the rate and force components as contiguous rows, made only where a term needs them:
+    # elementwise work on a column of an (n, 3) array strides through memory, 2-4 times slower
+    # (the same operations, the same sums), and copying all six columns up front was a tenth
+    # of the error model's time when no term reads them
+    f_rows = _Rows(f)
+    w_rows = _Rows(truth_rate)
     for j, name in enumerate(axes):
         ai = AXES[name]
         axis_terms = (_noise_terms(p, fs, n, seed, ai, enabled)
                       + _bias_and_scale_terms(p, fs, n, seed, ai, j, truth_rate, dT, draws,
-                                              rows[0][ai])
-                      + _g_terms(p, seed, ai, j, f, draws, rows[1])
+                                              w_rows)
+                      + _g_terms(p, seed, ai, j, f, draws, f_rows)
                       + _temperature_terms(p, dT, Tdot))
         for term, value in axis_terms:
             if term in enabled:
@@ -257,6 +260,18 @@ def simulate_fog(params: FogParams, fs: float, truth_rate: np.ndarray, specific_
     cont, saturated = _saturate(cont, p, enabled, terms)
     raw = _quantize(cont, p, enabled, terms, axes, fs, seed)
     return FogOutput(raw=raw, terms=terms, draws=draws, axes=tuple(axes), saturated=saturated)
+
+
+class _Rows:
+    """The columns of an (n, 3) array as contiguous rows, each copied on first use."""
+
+    def __init__(self, a: np.ndarray):
+        self._a, self._rows = a, {}
+
+    def __getitem__(self, i: int) -> np.ndarray:
+        if i not in self._rows:
+            self._rows[i] = np.ascontiguousarray(self._a[:, i])
+        return self._rows[i]
 
 
 def _simulate_triad(params, fs, truth_rate, specific_force, temp, temp_rate, axes, seed
@@ -302,10 +317,10 @@ def _noise_terms(p: FogParams, fs: float, n: int, seed: int, ai: int, enabled) -
 
 
 def _bias_and_scale_terms(p: FogParams, fs: float, n: int, seed: int, ai: int, j: int,
-                          truth_rate: np.ndarray, dT, draws: dict, w: np.ndarray) -> list:
+                          truth_rate: np.ndarray, dT, draws: dict, w_rows: _Rows) -> list:
     """(term, rate error (n,)) of the biases (constant, switch-on: its draw is kept in
     ``draws``, ramp) and of the rate's own errors (scale factor, misalignment) of axis ``ai``,
-    the ``j``-th output (``w``: its true rate, contiguous)."""
+    the ``j``-th output (``w_rows[ai]``: its true rate, contiguous)."""
     out = []
     if p.bias:
         out.append(("constant_bias", np.broadcast_to(p.bias, (n,))))
@@ -317,6 +332,7 @@ def _bias_and_scale_terms(p: FogParams, fs: float, n: int, seed: int, ai: int, j
         out.append(("rate_ramp", p.rate_ramp * (np.arange(n) + 0.5) * (1.0 / fs)))
     if p.scale_factor or p.sf_nonlinearity or (p.sf_temp_coeff and dT is not None):
         k = p.scale_factor if dT is None else p.scale_factor + p.sf_temp_coeff * dT
+        w = w_rows[ai]
         e = k * w
         if p.sf_nonlinearity:
             e = e + p.sf_nonlinearity * w * np.abs(w) / p.full_scale
@@ -329,7 +345,7 @@ def _bias_and_scale_terms(p: FogParams, fs: float, n: int, seed: int, ai: int, j
 
 
 def _g_terms(p: FogParams, seed: int, ai: int, j: int, f: np.ndarray, draws: dict,
-             f_rows: np.ndarray) -> list:
+             f_rows: _Rows) -> list:
     """(term, rate error (n,)) of the g and g^2 sensitivities of axis ``ai`` (the ``j``-th
     output), their switch-on draws added to ``draws`` first (``f_rows``: f's components as
     contiguous rows)."""
@@ -344,7 +360,7 @@ def _g_terms(p: FogParams, seed: int, ai: int, j: int, f: np.ndarray, draws: dic
         out.append(("g_sensitivity", f @ draws["g_sens"][j]))
     if np.any(draws["g2_sens"][j]):
         d = draws["g2_sens"][j]
-        fx, fy, fz = f_rows
+        fx, fy, fz = f_rows[0], f_rows[1], f_rows[2]
         out.append(("g2_sensitivity", (d[0] * fx + d[3] * fy + d[5] * fz) * fx
                     + (d[1] * fy + d[4] * fz) * fy + d[2] * fz * fz))
     return out

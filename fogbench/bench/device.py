@@ -109,12 +109,13 @@ def round_trip(case: RoundTrip, seeds: int = 20, logs: int = 8) -> dict:
                       enumerate(zip(e.value, e.low, e.high))] if isinstance(e.low, list)
                      else [(e.key, e.value, e.low, e.high)])
             for key, _, lo, hi in parts:
-                if lo is None or key not in known:
+                if (lo is None and hi is None) or key not in known:
                     continue
                 c = out.setdefault(key, [0, 0])
                 c[0] += 1
                 tv = known[key]
-                c[1] += int(tv is not None and lo <= tv <= hi)
+                c[1] += int(tv is not None and (lo is None or lo <= tv)
+                            and (hi is None or tv <= hi))
     return {k: tuple(v) for k, v in out.items()}
 
 

@@ -175,7 +175,7 @@ TRIAD_NEEDS = {
 def _entry_interval(e: Entry) -> str:
     """An entry's interval as written after its value ('' when none is stated): one pair, or
     one per component of a vector ('-' for a component the logs do not determine)."""
-    if e.low is None:
+    if e.low is None and e.high is None:
         return ""
     if isinstance(e.low, (list, tuple)):
         return " [" + "; ".join("-" if a is None else _interval_text(a, b)
@@ -183,8 +183,11 @@ def _entry_interval(e: Entry) -> str:
     return f" [{_interval_text(e.low, e.high)}]"
 
 
-def _interval_text(lo: float, hi: float) -> str:
-    """Both bounds with the digits that tell them apart (at least 4 significant)."""
+def _interval_text(lo: float | None, hi: float | None) -> str:
+    """Both bounds with the digits that tell them apart (at least 4 significant); a side the
+    logs do not bound (None) as '-'."""
+    if lo is None or hi is None:
+        return ", ".join("-" if x is None else f"{x:.4g}" for x in (lo, hi))
     width = abs(hi - lo)
     scale = max(abs(lo), abs(hi))
     digits = 4 if width == 0 or scale == 0 else max(4, int(math.ceil(

@@ -633,7 +633,8 @@ def _noise_entries(fit: DeviceFit, model, origin: str, fs: float) -> None:
                  key=lambda t: -t.value)
     if gms:
         g = gms[0]
-        fit.entries.append(Entry("gm_drift_dps", g.value / DPS, g.low / DPS, g.high / DPS,
+        fit.entries.append(Entry("gm_drift_dps", g.value / DPS, g.low / DPS,
+                                 None if g.high is None else g.high / DPS,
                                  f"the Gauss-Markov term of {origin} of largest sigma"
                                  + (f" ({GM_RULE})" if len(gms) > 1 else "")))
         fit.entries.append(Entry("gm_time_constant_s", g.tau, g.tau_low, g.tau_high,

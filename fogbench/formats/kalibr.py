@@ -168,6 +168,11 @@ def gm_terms(models: dict) -> list:
             for ax, m in models.items() for t in m.gm_terms if t.status == "identified"]
 
 
+def _side(x, open_side: str) -> str:
+    """One side of an interval; ``open_side`` where the record does not bound it (None)."""
+    return open_side if x is None else f"{x:.3g}"
+
+
 def _gm_comments(values: dict) -> list:
     """The comment lines of the Gauss-Markov terms in ``values`` (``(sensor, "GM")``)."""
     lines = []
@@ -180,7 +185,7 @@ def _gm_comments(values: dict) -> list:
                          "only), so none is written as a key: a filter that carries them takes "
                          "each sigma and tau (discrete form: allan.json's 'filter')")
             lines += [f"  {ax}: sigma {sg:.6g} {unit}, tau {T:.6g} s (interval "
-                      f"{lo:.3g}..{hi:.3g} s)" for ax, sg, T, (lo, hi) in gms]
+                      f"{_side(lo, '0')}..{_side(hi, 'inf')} s)" for ax, sg, T, (lo, hi) in gms]
     return lines
 
 

@@ -23,8 +23,10 @@ _HEAD = {"N": "ARW deg/sqrt(h)", "B": "BI deg/h", "K": "RRW deg/h/sqrt(h)", "Q":
 DPH = math.pi / 180.0 / 3600.0
 
 
-def _num(x: float) -> str:
-    return f"{x:.4g}"
+def _num(x: float | None, open_side: str = "-") -> str:
+    """A number to 4 significant digits; ``open_side`` for None (an interval's side the record
+    does not bound)."""
+    return open_side if x is None else f"{x:.4g}"
 
 
 def term_text(t) -> str:
@@ -46,7 +48,7 @@ def _gm_text(model) -> str:
         return "-"
     return "; ".join(f"{_num(t.value / DPH)} [{_num(t.low / DPH)}, "
                      f"{'inf' if t.high is None else _num(t.high / DPH)}] deg/h, "
-                     f"tau {_num(t.tau)} [{_num(t.tau_low)}, {_num(t.tau_high)}] s"
+                     f"tau {_num(t.tau)} [{_num(t.tau_low, '0')}, {_num(t.tau_high, 'inf')}] s"
                      for t in gms)
 
 

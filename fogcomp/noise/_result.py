@@ -366,7 +366,8 @@ class NoiseModel:
                   "<k>": value, "<k>_low", "<k>_high", "<k>_sigma",  # identified only
                   "<k>_bound95": one-sided 95 % upper bound,
                   "in_model": bool, "reason": str,
-                  # GM only: "gm_tau_s", "gm_tau_low_s", "gm_tau_high_s"; outside the model
+                  # GM only: "gm_tau_s", "gm_tau_low_s", "gm_tau_high_s" (either None
+                  # where the record does not bound that side); outside the model
                   # "gm_sigma_dph_bound95_by_tau": [{"tau_s", "gm_sigma_dph"}, ...];
                   # where predicted: "record_s_for_10pct"
                  }, ...],

@@ -68,3 +68,52 @@ def test_the_device_file_takes_the_largest_sigma_and_names_the_others(model):
     assert GM_RULE in note
     sigma_dph, tau = (float(x) for x in re.search(r"out: (\S+) deg/h, tau (\S+) s", note).groups())
     assert sigma_dph == pytest.approx(0.01 / DPH, rel=1e-2) and tau == pytest.approx(500, rel=1e-2)
+
+
+# --- a correlation time bounded on one side only ----------------------------------------------
+@pytest.fixture(scope="module")
+def open_tau(tmp_path_factory):
+    """4 h at 2 Hz of white noise and a rate random walk, with N + GM stated: the slow term
+    stands in for the walk and its correlation time is bounded below only (the record cannot
+    rule out longer times). The CSV a user would hand to ``fogbench allan``."""
+    rng = np.random.default_rng(0)
+    fs, n = 2.0, 4 * 3600 * 2
+    k = 0.5 * math.pi / 180 / 3600 / 60                     # 0.5 deg/h/sqrt(h)
+    y = 0.01 * math.pi / 180 / 60 * math.sqrt(fs) * rng.standard_normal(n) \
+        + np.cumsum(rng.standard_normal(n)) * k / math.sqrt(fs)
+    p = tmp_path_factory.mktemp("open_tau") / "rw.csv"
+    np.savetxt(p, np.column_stack([np.arange(n) / fs, np.degrees(y)]), delimiter=",",
+               header="time_s,gyro_z_dps", comments="")
+    return p
+
+
+def test_an_open_side_of_the_correlation_time_is_written_by_every_output(open_tau, tmp_path):
+    """allan (table, allan.json, Kalibr and OpenVINS comments) and the device file write a
+    one-sided interval of T as one-sided ('inf', null, '-'), not a crash and not a number."""
+    import json
+
+    from helpers import run_cli
+
+    from fogbench.device.file import DeviceFit
+    from fogbench.device.fit import _noise_entries
+    from fogcomp.allan import allan_analysis
+
+    y = np.radians(np.loadtxt(open_tau, delimiter=",", skiprows=1)[:, 1])
+    m = allan_analysis(y, 2.0, model="N + GM", record_length=False)[1]
+    g = m.term("GM1")
+    assert g.status == "identified" and g.tau_low is not None and g.tau_high is None, g
+    out = tmp_path / "a"
+    code, so, se = run_cli("allan", str(open_tau), "--model", "N + GM", "--out", str(out),
+                           "--kalibr", str(tmp_path / "imu.yaml"),
+                           "--openvins", str(tmp_path / "ov.yaml"))
+    assert code == 0, se
+    assert "inf] s" in so
+    text = (out / "allan.json").read_text()
+    json.loads(text)
+    assert '"gm_tau_high_s": null' in text
+    for f in ("imu.yaml", "ov.yaml"):
+        assert "..inf s)" in (tmp_path / f).read_text()
+    fit = DeviceFit()
+    _noise_entries(fit, m, "the test record", 2.0)
+    line = next(ln for ln in fit.to_toml().splitlines() if ln.startswith("# gm_time_constant_s"))
+    assert line.rstrip().endswith(", -]"), line

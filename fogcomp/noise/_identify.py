@@ -85,7 +85,7 @@ def identify_noise_model(taus, avar, fs: float, n, *, model=None, ci: float | No
     scale = fit.J / dof if dof > 0 and p_value < 0.05 else 1.0
     terms = _model_terms(_Report.of(pb, fit, scale, ci, stated is not None, alpha,
                                     record_length), weak, log, max_gm)
-    alt = None if stated is not None or not alternative else \
+    found = None if stated is not None or not alternative else \
         _alternative(pb, fit, weak, alpha, max_gm, log)
     floor = _floor_reading(t, v, cov_v)
 
@@ -97,7 +97,8 @@ def identify_noise_model(taus, avar, fs: float, n, *, model=None, ci: float | No
                           alternative=alternative)
 
     other = None
-    if alt is not None:
+    if found is not None:
+        alt, swapped_in = found
         a_dof = t.size - alt.spec.n_params
         a_p = float(chi2.sf(alt.J, a_dof)) if a_dof > 0 else float("nan")
         a_scale = alt.J / a_dof if a_dof > 0 and a_p < 0.05 else 1.0
@@ -105,14 +106,16 @@ def identify_noise_model(taus, avar, fs: float, n, *, model=None, ci: float | No
         # not called identified in the alternative); no bounds of the terms it leaves out or
         # of a further Gauss-Markov term (the selection has them)
         a_log = [log[-1]]
-        a_weak = _weak_terms(pb, alt, alpha, a_log)
+        a_weak = _weak_terms(pb, alt, alpha, a_log, hold_times=True)
         a_terms = _model_terms(_Report.of(pb, alt, a_scale, ci, False, alpha, False), a_weak,
                                [], len(alt.spec.gm), bounds=False)
         head = f"the alternative reading ({alt.spec.label()}): "
-        swapped = (f"fits as well as the selection, {fit.spec.label()} (J {alt.J:.4g} and "
-                   f"{fit.J:.4g})")
-        a_terms = [replace(x, reason=head + (swapped if x.term == "GM" and x.in_model
-                                             and x.status == "identified" else x.reason))
+        swapped = (f"in place of the selection's {'flicker' if swapped_in == 'GM' else 'Gauss-Markov term'}"
+                   f", fits as well ({fit.spec.label()}: J {fit.J:.4g}, this: {alt.J:.4g})")
+        kept = {round(T, 6) for T in fit.spec.gm}
+        a_terms = [replace(x, reason=head + (swapped if x.term == swapped_in and x.in_model
+                                             and (x.term == "B" or round(x.tau, 6) not in kept)
+                                             else x.reason))
                    for x in a_terms]
         other = model(alt, a_terms, a_log, a_scale, a_p, a_dof)
     return model(fit, terms, log, scale, p_value, dof, other)

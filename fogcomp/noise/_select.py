@@ -110,14 +110,18 @@ def _select(pb: _Problem, alpha: float, max_gm: int, log: list) -> tuple[_Fit, d
     return cur, _weak_terms(pb, cur, alpha, log)
 
 
-def _weak_terms(pb: _Problem, cur: _Fit, alpha: float, log: list) -> dict:
+def _weak_terms(pb: _Problem, cur: _Fit, alpha: float, log: list,
+                hold_times: bool = False) -> dict:
     """The IEEE terms of ``cur`` whose removal raises J by less than one term's critical
-    value: term -> (rise, critical value); each said in ``log``."""
+    value: term -> (rise, critical value); each said in ``log``. ``hold_times``: the
+    Gauss-Markov correlation times held where they are when a term is removed (else refitted:
+    a time then free to leave the averaging times can mimic the removed term, e.g. a term
+    of a few milliseconds standing in for white noise)."""
     weak = {}
     for t in cur.spec.linear:
         if len(cur.spec.linear) + len(cur.spec.gm) == 1:
             break
-        rise = pb.refine(_drop(cur.spec, t)).J - cur.J
+        rise = (pb.solve if hold_times else pb.refine)(_drop(cur.spec, t)).J - cur.J
         if rise < _threshold(1, alpha):
             weak[t] = (rise, _threshold(1, alpha))
             log.append(f"{t} not significant: removing it raises J by only {rise:.3g} "
@@ -139,7 +143,7 @@ def _saturated(pb: _Problem, alpha: float, max_gm: int) -> _Fit:
 
 
 def _alternative(pb: _Problem, fit: _Fit, weak: dict, alpha: float, max_gm: int,
-                 log: list) -> _Fit | None:
+                 log: list) -> tuple[_Fit, str] | None:
     """The other reading of the same feature, when the record cannot choose: over a record of
     a few correlation times a flicker floor and a Gauss-Markov hump bend the Allan curve alike.
     For a selected model with an identified flicker B (and room for one more Gauss-Markov
@@ -150,7 +154,9 @@ def _alternative(pb: _Problem, fit: _Fit, weak: dict, alpha: float, max_gm: int,
     must clear to enter the selection at all) or is lower, its swapped-in term is above zero,
     and a
     Gauss-Markov term of it lies inside the averaging times and makes 10 % of the curve
-    somewhere. Returns the best one (least J) or None; the log says which and both J.
+    somewhere. Returns the best one (least J; its IEEE terms fitted as exactly zero left
+    out, the correlation times held) and the term swapped in ("GM" or "B"), or None; the log
+    says which and both J.
 
     Why the selection is not changed by it: measured (``fogbench.bench.noise_select``, and a
     Whittle likelihood on the full periodogram, docs/theory/noise-identification.md), an 8 h
@@ -189,6 +195,12 @@ def _alternative(pb: _Problem, fit: _Fit, weak: dict, alpha: float, max_gm: int,
     if best is None:
         return None
     what, alt = best
+    while True:                     # the terms fitted as exactly zero leave, as in _select
+        n_lin = len(alt.spec.linear)
+        zero = [t for t, c in zip(alt.spec.linear, alt.coef[:n_lin]) if c <= 0]
+        if not zero:
+            break
+        alt = pb.solve(_Spec(tuple(t for t in alt.spec.linear if t not in zero), alt.spec.gm))
     extra = alt.spec.n_params - fit.spec.n_params
     wvic = "the alternative" if alt.J + 2 * extra < fit.J else "the selection"
     log.append(f"both fit: {fit.spec.label()} (J {fit.J:.4g}) and, with {what}, "
@@ -196,4 +208,4 @@ def _alternative(pb: _Problem, fit: _Fit, weak: dict, alpha: float, max_gm: int,
                f"critical value {bar:.3g}); the first is the selection (the tests above), the "
                f"second the alternative; a criterion of 2 per parameter (WVIC) would prefer "
                f"{wvic}")
-    return alt
+    return alt, ("B" if "B" in alt.spec.linear else "GM")

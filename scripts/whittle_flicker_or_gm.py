@@ -95,7 +95,8 @@ def main(argv=None) -> int:
                          - fit(fb, sb, mb, p.fs, ("N",), 1))
         print(f"{p.name}: -log L(N + B) - (-log L(N + GM)) over {seeds} records: "
               + " ".join(f"{d:+.1f}" for d in diffs)
-              + f"  (median {np.median(diffs):+.1f}; > 0: the Gauss-Markov reading fits better)")
+              + f"  (median {np.median(diffs):+.1f}; > 0: the Gauss-Markov reading fits better; it has "
+              "one parameter more)")
     return 0
 
 

@@ -113,6 +113,9 @@ def attitude_study(replicates: int = 20, preset: str = "navigation", align_s: fl
 
 
 def _fmt(m, lo, hi) -> str:
+    """``mean [low, high]``; the interval as '-' where there is none (one replicate)."""
+    if not (np.isfinite(lo) and np.isfinite(hi)):
+        return f"{m:+.4f} [-]"
     return f"{m:+.4f} [{lo:+.4f}, {hi:+.4f}]"
 
 
@@ -141,18 +144,26 @@ def report(study: dict) -> list[str]:
     return lines
 
 
-def _check_rrd_path(path: str) -> None:
-    """Refuse, before any work, a path that exists and is not a Rerun recording (the command
-    replaces only its own kind of output) or whose folder does not exist."""
+def _check_rrd_path(path: str, overwrite: bool) -> None:
+    """Refuse, before any work, a path whose folder does not exist, or that exists and is not
+    a Rerun recording, or (without ``overwrite``) exists at all: the command replaces only a
+    recording, and only when told to."""
     import sys
     from pathlib import Path
 
     p = Path(path)
     why = None
+
+    def magic() -> bytes:
+        with open(p, "rb") as fh:
+            return fh.read(4)
+
     if p.suffix != ".rrd":
         why = "the recording's name must end in .rrd"
-    elif p.exists() and (p.is_dir() or p.read_bytes()[:4] != b"RRF2"):
+    elif p.exists() and (p.is_dir() or magic() != b"RRF2"):
         why = "it exists and is not a Rerun recording: not overwritten"
+    elif p.exists() and not overwrite:
+        why = "it exists: give --overwrite to replace it"
     elif not p.parent.is_dir():
         why = f"its folder {p.parent} does not exist"
     if why:
@@ -174,11 +185,13 @@ def main(argv=None) -> int:
     a.add_argument("--rrd", metavar="PATH", help="with --triad: write a Rerun recording of the "
                    "first replicate's integrated attitudes beside the true one (.rrd; refused "
                    "if PATH exists and is not a Rerun recording)")
+    a.add_argument("--overwrite", action="store_true", help="with --rrd: replace an existing "
+                   "Rerun recording at PATH")
     args = a.parse_args(argv)
     if args.rrd and not args.triad:
         a.error("--rrd needs --triad")
     if args.rrd:
-        _check_rrd_path(args.rrd)
+        _check_rrd_path(args.rrd, args.overwrite)
     if args.device:
         from fogbench.scenario import ScenarioError
         from fogbench.scenario.device_file import load_device_file

@@ -65,7 +65,7 @@ def measure(seeds: int = 20, hours: float = HOURS) -> dict:
     t0 = time.perf_counter()
     ident, specs = [], []
     for y in z:
-        _, nm = allan_analysis(y, FS, record_length=False)
+        _, nm = allan_analysis(y, FS, record_length=False, alternative=False)
         ident.append(from_noise_model(nm))
         specs.append(nm.spec())
     t_id = time.perf_counter() - t0
@@ -109,7 +109,8 @@ def _held_out(z, truth):
 
     seeds, n = z.shape
     h = n // 2
-    models = [from_noise_model(allan_analysis(y[:h], FS, record_length=False)[1]) for y in z]
+    models = [from_noise_model(allan_analysis(y[:h], FS, record_length=False,
+                                              alternative=False)[1]) for y in z]
     res = inflation_factors(models, z[:, h:], grid=np.geomspace(0.5, 20.0, 14))
     f = np.array([max(1.0, r.f_low) for r in res])
     groups = {"held-out half: identified on the first": models,

@@ -524,7 +524,8 @@ def _record_curve(opts: CheckOptions):
         s, log = _read_static(opts.log, opts)
         print(log.describe(), file=sys.stderr)
         segments = list(s.segments)
-        curve, _ = allan_analysis(s.rate, s.fs, ci=CHECK_CI, segments=segments)
+        curve, _ = allan_analysis(s.rate, s.fs, ci=CHECK_CI, segments=segments,
+                                  alternative=False)
         return curve, s.fs, segments, int(s.rate.size), f"{CHECK_CI:.0%} interval (EDF)"
     _, (t, a, lo, hi), fs, n = _read_curve_axis(opts)
     if lo is None:

@@ -246,30 +246,38 @@ ATTITUDE_METRIC = "angle_error_max_deg"
 
 def _attitude_order_lines(mc: dict, plan) -> list[str]:
     """Per protocol, the methods (raw and oracle included) ordered by the mean over replicates of
-    the scenario's rate metric (its first claim's, else ``rmse_dph``) and by the attitude metric,
-    with the places that change; ties and methods without both metrics are left out."""
+    the scenario's rate metric (its first claim's, else ``rmse_dph``; best first: the largest
+    first for an improvement in %) and by the attitude metric, with the places that change.
+    Methods without both metrics over every scored run (a mean over fewer runs is not
+    comparable) are left out and named."""
     rate = next((c.metric for c in plan.claims if c.metric != ATTITUDE_METRIC), "rmse_dph")
+    sign = -1.0 if rate.endswith("_pct") else 1.0
     L = []
     for pname, po in mc["over_runs"].items():
-        means = {}
+        means, partial = {}, []
         for lab, by_metric in po.items():
             a, b = by_metric.get(rate) or {}, by_metric.get(ATTITUDE_METRIC) or {}
             if a.get("n") and b.get("n"):
-                means[lab] = (a["mean"], b["mean"])
+                if a.get("runs") or b.get("runs"):
+                    partial.append(lab)
+                else:
+                    means[lab] = (sign * a["mean"], b["mean"])
         if len(means) < 2:
             continue
         by_rate = sorted(means, key=lambda k: means[k][0])
         by_att = sorted(means, key=lambda k: means[k][1])
         moved = [f"{lab} {by_rate.index(lab) + 1} -> {by_att.index(lab) + 1}"
                  for lab in by_rate if by_rate.index(lab) != by_att.index(lab)]
-        L.append(f"- `{pname}`: by {rate}: {' < '.join(by_rate)}; by {ATTITUDE_METRIC}: "
-                 f"{' < '.join(by_att)}" + (f" (places changed: {', '.join(moved)})" if moved
-                                            else " (the same order)") + ".")
+        L.append(f"- `{pname}`: by {rate}: {', '.join(by_rate)}; by {ATTITUDE_METRIC}: "
+                 f"{', '.join(by_att)}" + (f" (places changed: {', '.join(moved)})" if moved
+                                            else " (the same order)")
+                 + (f"; not ranked (scored on fewer runs): {', '.join(partial)}" if partial
+                    else "") + ".")
     if not L:
         return []
-    return (["Ranking by rate and by attitude (means over replicates; each method's interval "
-             "is in the table above, and an order between overlapping intervals is no "
-             "verdict):", ""] + L + [""])
+    return (["Ranking by rate and by attitude, best first (means over replicates; each "
+             "method's interval is in the table above, and an order between overlapping "
+             "intervals is no verdict):", ""] + L + [""])
 
 
 def _scenario_lines(r: dict, plans: dict) -> list[str]:

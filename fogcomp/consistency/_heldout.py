@@ -82,7 +82,7 @@ def held_out(rate, fs: float, *, split: float = 0.5, known_rate=0.0, segments=No
     if not fit_segs or not held:
         raise ValueError(f"rate: no gap-free piece of at least {min_piece} samples on each side "
                          f"of the split at sample {s}")
-    _, nm = allan_analysis(z[:s], fs, segments=fit_segs, model=model)
+    _, nm = allan_analysis(z[:s], fs, segments=fit_segs, model=model, alternative=False)
     fm = from_noise_model(nm, per_decade=per_decade)
     co = {t.term: t.value for t in nm.identified}
     ferr = flicker_as_gm(co.get("B") or 0.0, fs, nm.taus, per_decade)[1]

@@ -132,8 +132,8 @@ def _tau_interval(pb: _Problem, fit: _Fit, g: int, z: float,
     estimates: a conditional interval, a little short where two terms' times trade off).
 
     A correlation time estimated from the Allan variance runs short of the truth on records of
-    a few dozen correlation times (measured: median -11 % for a 500 s term over 8 h, stated
-    model, 20 records), and a normal interval in log T from the linearised covariance is
+    a few dozen correlation times (measured: median -20 % for a 500 s term over 8 h, stated
+    model, 20 records, ``fogbench.bench.noise_select``), and a normal interval in log T from the linearised covariance is
     symmetric about that short estimate; J rises slowly towards the long times a record holds
     few of, so the inverted interval reaches further up than down and owns the bias (its
     coverage is printed by ``fogbench.bench.noise_select``). (low, high): None on a side where J

@@ -60,3 +60,15 @@ def test_rrd_refused_before_any_work_and_the_file_kept(tmp_path, capsys, name, c
 def test_rrd_needs_triad(tmp_path):
     with pytest.raises(SystemExit):
         bench_attitude(["--rrd", str(tmp_path / "a.rrd")])
+
+
+def test_an_existing_recording_is_replaced_only_with_overwrite(tmp_path, capsys):
+    p = tmp_path / "old.rrd"
+    t = np.arange(3) * 0.1
+    r = Rotation.identity(3)
+    write_attitude_recording(p, t, r, {"raw": r})
+    before = p.read_bytes()
+    with pytest.raises(SystemExit) as e:
+        bench_attitude(["--triad", "--replicates", "1", "--rrd", str(p)])
+    assert e.value.code == 2 and "--overwrite" in capsys.readouterr().err
+    assert p.read_bytes() == before

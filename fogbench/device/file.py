@@ -213,6 +213,10 @@ def _is_device_file(path: Path) -> bool:
         return False
 
 
+_TRIAD_NEEDS_AXIS = ("a triad device file (tables [x], [y], [z]) where one gyro is simulated: "
+                     "choose its gyro with --axis x, y or z")
+
+
 def _device_from_values(values: dict, fs: float, axis: str | None = None):
     """FogParams of a device file's keys (datasheet units) at sample rate ``fs``; of a triad
     device file, its gyro ``axis``'s (required: a one-axis consumer is handed one gyro)."""
@@ -222,8 +226,7 @@ def _device_from_values(values: dict, fs: float, axis: str | None = None):
 
     if is_triad(values):
         if axis is None:
-            raise LogError("a triad device file (tables [x], [y], [z]) where one gyro is "
-                           "simulated: choose its gyro with --axis x, y or z")
+            raise LogError(_TRIAD_NEEDS_AXIS)
         values = {**values, "axes": [axis]}
     params, *_ = _fog(_Table(dict(values), "device", "fitted device"), fs)
     return params
@@ -241,6 +244,5 @@ def _device_params(path, fs: float, axis: str | None = None):
     except ScenarioError as exc:
         raise LogError(str(exc)) from None
     if is_triad(doc) and axis is None:
-        raise LogError(f"{path}: a triad device file (tables [x], [y], [z]) where one gyro is "
-                       "simulated: choose its gyro with --axis x, y or z")
+        raise LogError(f"{path}: {_TRIAD_NEEDS_AXIS}")
     return _device_from_values(doc, fs, axis), doc

@@ -13,7 +13,8 @@ from fogbench.logs.calibrate import reference_unit
 
 
 def _channel(log, axis: str | None, path) -> str:
-    gyros = sorted(c for c in log.channels if c.startswith("gyro_"))
+    """The log's gyro column for ``axis``, or its only one; refused naming the columns."""
+    gyros = gyro_columns(log)
     if axis is not None:
         ch = f"gyro_{axis}"
         if ch not in log.channels:

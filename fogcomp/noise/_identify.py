@@ -70,8 +70,6 @@ def identify_noise_model(taus, avar, fs: float, n, *, model=None, ci: float | No
     -------
     NoiseModel
     """
-    from scipy.stats import chi2
-
     ci = ONE_SIGMA_CI if ci is None else ci
     _check_options(ci, alpha, max_gm, model_error)
     t, v, m, segs, fs = _checked_curve(taus, avar, fs, n)
@@ -79,10 +77,7 @@ def identify_noise_model(taus, avar, fs: float, n, *, model=None, ci: float | No
     pb = _Problem(t, v, m, segs, fs, model_error)
     big, fit, weak, log = _fit_and_select(pb, stated, alpha, max_gm, model_error)
     cov_v = pb.covariance(*big.coefficients())
-    # the parameter covariance is scaled by J / dof when the curve departs from the model
-    dof = t.size - fit.spec.n_params
-    p_value = float(chi2.sf(fit.J, dof)) if dof > 0 else float("nan")
-    scale = fit.J / dof if dof > 0 and p_value < 0.05 else 1.0
+    dof, p_value, scale = _fit_quality(fit, t.size)
     terms = _model_terms(_Report.of(pb, fit, scale, ci, stated is not None, alpha,
                                     record_length), weak, log, max_gm)
     found = None if stated is not None or not alternative else \
@@ -99,26 +94,43 @@ def identify_noise_model(taus, avar, fs: float, n, *, model=None, ci: float | No
     other = None
     if found is not None:
         alt, swapped_in = found
-        a_dof = t.size - alt.spec.n_params
-        a_p = float(chi2.sf(alt.J, a_dof)) if a_dof > 0 else float("nan")
-        a_scale = alt.J / a_dof if a_dof > 0 and a_p < 0.05 else 1.0
-        # its IEEE terms tested as the selection's are (a term the selection found weak is
-        # not called identified in the alternative); no bounds of the terms it leaves out or
-        # of a further Gauss-Markov term (the selection has them)
-        a_log = [log[-1]]
-        a_weak = _weak_terms(pb, alt, alpha, a_log, hold_times=True)
-        a_terms = _model_terms(_Report.of(pb, alt, a_scale, ci, False, alpha, False), a_weak,
-                               [], len(alt.spec.gm), bounds=False)
-        head = f"the alternative reading ({alt.spec.label()}): "
-        swapped = (f"in place of the selection's {'flicker' if swapped_in == 'GM' else 'Gauss-Markov term'}"
-                   f", fits as well ({fit.spec.label()}: J {fit.J:.4g}, this: {alt.J:.4g})")
-        kept = {round(T, 6) for T in fit.spec.gm}
-        a_terms = [replace(x, reason=head + (swapped if x.term == swapped_in and x.in_model
-                                             and (x.term == "B" or round(x.tau, 6) not in kept)
-                                             else x.reason))
-                   for x in a_terms]
+        a_dof, a_p, a_scale = _fit_quality(alt, t.size)
+        a_terms, a_log = _alternative_terms(pb, fit, alt, swapped_in, a_scale, ci, alpha,
+                                            log[-1])
         other = model(alt, a_terms, a_log, a_scale, a_p, a_dof)
     return model(fit, terms, log, scale, p_value, dof, other)
+
+
+def _fit_quality(fit: _Fit, k: int) -> tuple[int, float, float]:
+    """(degrees of freedom, chi-squared probability of J, the factor on the parameter
+    covariance): ``J / dof`` when the curve departs from the model (p < 0.05), else 1."""
+    from scipy.stats import chi2
+
+    dof = k - fit.spec.n_params
+    p_value = float(chi2.sf(fit.J, dof)) if dof > 0 else float("nan")
+    return dof, p_value, (fit.J / dof if dof > 0 and p_value < 0.05 else 1.0)
+
+
+def _alternative_terms(pb: _Problem, fit: _Fit, alt: _Fit, swapped_in: str, scale: float,
+                       ci: float, alpha: float, said: str) -> tuple[list, list]:
+    """(terms, log) of the alternative reading ``alt`` of the selected ``fit``: its IEEE
+    terms tested as the selection's are, the correlation times held (a term the selection
+    found weak is not called identified here); no bounds of the terms it leaves out or of a
+    further Gauss-Markov term (the selection has them); each reason says it is the
+    alternative, the swapped-in term's that it fits as well."""
+    a_log = [said]
+    a_weak = _weak_terms(pb, alt, alpha, a_log, hold_times=True)
+    a_terms = _model_terms(_Report.of(pb, alt, scale, ci, False, alpha, False), a_weak,
+                           [], len(alt.spec.gm), bounds=False)
+    head = f"the alternative reading ({alt.spec.label()}): "
+    what = "flicker" if swapped_in == "GM" else "Gauss-Markov term"
+    swapped = (f"in place of the selection's {what}, fits as well ({fit.spec.label()}: "
+               f"J {fit.J:.4g}, this: {alt.J:.4g})")
+    kept = {round(T, 6) for T in fit.spec.gm}
+    return [replace(x, reason=head + (swapped if x.term == swapped_in and x.in_model
+                                      and (x.term == "B" or round(x.tau, 6) not in kept)
+                                      else x.reason))
+            for x in a_terms], a_log
 
 
 # ---------------------------------------------------------------------------------------------

@@ -144,31 +144,30 @@ def report(study: dict) -> list[str]:
     return lines
 
 
-def _check_rrd_path(path: str, overwrite: bool) -> None:
-    """Refuse, before any work, a path whose folder does not exist, or that exists and is not
-    a Rerun recording, or (without ``overwrite``) exists at all: the command replaces only a
-    recording, and only when told to."""
+def _rrd_outputs(path: str, overwrite: bool):
+    """The --rrd recording checked before any work by the project's output rules
+    (:class:`fogbench.outputs.folders.Outputs`: an existing file replaced only when it is a
+    Rerun recording and with ``overwrite``, never a folder or a symbolic link); exits 2
+    naming what is wrong."""
     import sys
     from pathlib import Path
 
-    p = Path(path)
-    why = None
+    from fogbench.outputs.folders import OutDirError, Outputs
 
-    def magic() -> bytes:
+    def is_rrd(p: Path) -> bool:
         with open(p, "rb") as fh:
-            return fh.read(4)
+            return fh.read(4) == b"RRF2"
 
-    if p.suffix != ".rrd":
-        why = "the recording's name must end in .rrd"
-    elif p.exists() and (p.is_dir() or magic() != b"RRF2"):
-        why = "it exists and is not a Rerun recording: not overwritten"
-    elif p.exists() and not overwrite:
-        why = "it exists: give --overwrite to replace it"
-    elif not p.parent.is_dir():
-        why = f"its folder {p.parent} does not exist"
-    if why:
-        print(f"error: --rrd {path}: {why}", file=sys.stderr)
-        raise SystemExit(2)
+    p = Path(path)
+    try:
+        if p.suffix != ".rrd":
+            raise OutDirError(f"--rrd {path}: the recording's name must end in .rrd")
+        out = Outputs(overwrite, "bench attitude")
+        out.target(p, recognise=is_rrd, what="Rerun recording", flag="--rrd")
+    except OutDirError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        raise SystemExit(2) from None
+    return out, p
 
 
 def main(argv=None) -> int:
@@ -191,7 +190,7 @@ def main(argv=None) -> int:
     if args.rrd and not args.triad:
         a.error("--rrd needs --triad")
     if args.rrd:
-        _check_rrd_path(args.rrd, args.overwrite)
+        rrd_out, rrd = _rrd_outputs(args.rrd, args.overwrite)
     if args.device:
         from fogbench.scenario import ScenarioError
         from fogbench.scenario.device_file import load_device_file
@@ -208,8 +207,15 @@ def main(argv=None) -> int:
             from fogbench.recording.attitude import write_attitude_recording
 
             h = study["history"]
-            mag = write_attitude_recording(args.rrd, h["t"], h["truth"], h["estimates"],
-                                           title="triad attitude (bench attitude --triad)")
+            mag = []
+            try:
+                rrd_out.write(rrd, lambda tmp: mag.append(write_attitude_recording(
+                    tmp, h["t"], h["truth"], h["estimates"],
+                    title="triad attitude (bench attitude --triad)")))
+                rrd_out.commit()
+            finally:
+                rrd_out.discard()
+            mag = mag[0]
             print(f"wrote {args.rrd} (orientation errors drawn magnified {mag:g} times; open "
                   f"with: rerun {args.rrd})", flush=True)
         return 0

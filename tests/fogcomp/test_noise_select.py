@@ -12,28 +12,17 @@ import math
 
 import numpy as np
 import pytest
-from scipy.signal import lfilter
 
 from fogcomp.allan import allan_analysis, oadev
 from fogcomp.noise._fit import _Problem, _Spec
 from fogcomp.noise._intervals import _tau_interval
 from fogcomp.units import DEG_RT_H, DPH
+from test_noise_terms import gauss_markov, white  # its generators, at the same FS (10 Hz)
 
 FS = 10.0
 N8H = int(8 * 3600 * FS)
 ARW = 0.01 * DEG_RT_H
 GM = (0.05 * DPH, 500.0)
-
-
-def white(rng, n, arw):
-    return arw * math.sqrt(FS) * rng.standard_normal(n)
-
-
-def gauss_markov(rng, n, sigma, T):
-    phi = math.exp(-1.0 / (FS * T))
-    e = sigma * math.sqrt(1 - phi * phi) * rng.standard_normal(n)
-    e[0] = sigma * rng.standard_normal()
-    return lfilter([1.0], [1.0, -phi], e)
 
 
 def flicker(rng, n, B):
